@@ -1,0 +1,28 @@
+#!/usr/bin/env bash
+# Installs what a fresh machine of this project's kind (Debian, Rust 1.95, root) lacks.
+# Idempotent: installs only the packages that are missing. Sourced by the other scripts.
+set -euo pipefail
+
+# System packages:
+#   pkg-config, libudev-dev  gilrs (gamepads) builds against libudev
+#   xvfb, xauth              the real-window GUI test runs the station under a virtual display
+#   mesa-vulkan-drivers, libvulkan1  a CPU Vulkan adapter (lavapipe) for wgpu/egui_kittest
+APT_PACKAGES=(pkg-config libudev-dev xvfb xauth mesa-vulkan-drivers libvulkan1)
+
+missing=()
+for p in "${APT_PACKAGES[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ "${#missing[@]}" -gt 0 ]; then
+  echo "setup: installing ${missing[*]}"
+  SUDO=""
+  [ "$(id -u)" -ne 0 ] && SUDO="sudo"
+  $SUDO apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq "${missing[@]}" >/dev/null
+fi
+
+# Python's official `mcap` reader proves our session files open in other tools.
+if ! python3 -c "import mcap" 2>/dev/null; then
+  echo "setup: installing the Python mcap reader"
+  python3 -m pip install --quiet --disable-pip-version-check "mcap>=1.1" || echo "setup: warning: pip could not install mcap"
+fi
