@@ -161,7 +161,7 @@ pub enum PlotError {
 
 const TITLE_H: f32 = 34.0;
 const MARGIN_L: f32 = 72.0;
-const MARGIN_R: f32 = 18.0;
+const MARGIN_R: f32 = 150.0;
 const MARGIN_T: f32 = 26.0;
 const MARGIN_B: f32 = 40.0;
 
@@ -428,11 +428,10 @@ fn draw_lines(c: &mut Canvas<'_>, _panel: &Panel, series: &[Series], area: (f32,
         }
         c.line(&run, s.color, s.width_px, s.style == LineStyle::Dashed);
     }
-    // legend, top right inside the frame
-    let mut ly = y0 + 14.0;
+    // legend in the right margin, so it never hides data
+    let mut ly = y0 + 10.0;
     for s in series.iter().filter(|s| !s.name.is_empty()) {
-        let lx = x1 - 170.0;
-        c.rect(lx - 4.0, ly - 11.0, 168.0, 15.0, Rgb(255, 255, 255));
+        let lx = x1 + 10.0;
         c.line(
             &[(lx, ly - 4.0), (lx + 22.0, ly - 4.0)],
             s.color,

@@ -98,8 +98,14 @@ pub fn comparison_figure(
                 silent.push(*label);
                 continue;
             }
+            // Predictions often coincide; draw the first one wide and later ones thinner
+            // or dashed so that an overlap still shows both colours.
+            let i = lines.len() - 1;
             let mut s = Series::new(*label, pts, *color);
-            s.width_px = 1.3;
+            s.width_px = if i == 0 { 3.0 } else { 1.4 };
+            if i >= 2 {
+                s = s.dashed();
+            }
             lines.push(s);
         }
         let panel_title = if silent.is_empty() {
