@@ -16,6 +16,7 @@
     )
 )]
 
+pub mod conventions;
 pub mod measurement;
 pub mod params;
 

@@ -1,0 +1,49 @@
+//! Topside driver for the VideoRay Pro 4 tether link.
+//!
+//! * [`link`]: the sans-IO [`Link`] state machine: one request in flight, response
+//!   matching, timeouts, retries, error counters by class, round-trip statistics, link
+//!   health (connected / degraded / lost) and the SEARCHING → INIT → RUNNING sequence
+//!   of protocol.md §12.2, on time passed in as an argument.
+//! * [`failsafe`]: arming and the latched link-loss failsafe gating every outgoing
+//!   command (see `SAFETY.md`).
+//! * [`transport`]: serial port (`serialport`, no libudev), pseudo-terminal pairs, an
+//!   in-memory pipe, port enumeration and autodetect by ping.
+//! * [`runner`]: wall-clock runners: a blocking loop and a tokio task with a handle.
+//!
+//! Wire values become physics values (depth down, pitch nose up, roll starboard down,
+//! positive vertical thrust down) only through [`rov_types::conventions`].
+#![cfg_attr(
+    not(test),
+    deny(
+        clippy::unwrap_used,
+        clippy::expect_used,
+        clippy::indexing_slicing,
+        clippy::panic
+    )
+)]
+#![warn(missing_docs)]
+
+pub mod config;
+pub mod error;
+pub mod failsafe;
+pub mod link;
+pub mod runner;
+pub mod stats;
+pub mod telemetry;
+pub mod transport;
+
+pub use config::LinkConfig;
+pub use error::{ArmError, ConfigError, DriverError, TransportError};
+pub use failsafe::{Alarm, Failsafe, LatchedAlarm, is_neutral, neutral};
+pub use link::Link;
+pub use runner::{LinkHandle, LinkSnapshot, MonoClock, RunnerOptions, run_blocking, spawn};
+pub use stats::{FailCause, LinkCounters, RttStats, RttSummary};
+pub use telemetry::{
+    ExchangeKind, Health, LinkEvent, Phase, Request, RequestId, RequestOutcome, StatusTelemetry,
+    Telemetry,
+};
+pub use transport::serial::{AutodetectReport, PRO4_BAUD, ProbeReply, autodetect, probe};
+pub use transport::{
+    ByteSink, ByteSource, MemoryTransport, SerialTransport, SplitHalves, Transport,
+    available_port_names, memory_pair,
+};

@@ -1,0 +1,307 @@
+//! The real serial port (115200 8N1, no flow control) through `serialport` without
+//! libudev, pseudo-terminal pairs for tests, port enumeration and autodetect by ping
+//! (protocol.md §7).
+
+use std::io::{self, Write};
+use std::time::{Duration, Instant};
+
+use firmware_proto::{Deframer, DeviceType, Event, NodeId, Ping};
+use serialport::{DataBits, FlowControl, Parity, SerialPort, StopBits};
+
+use super::{ByteSink, ByteSource, SplitHalves, Transport};
+use crate::error::TransportError;
+
+/// The Pro 4's line rate.
+pub const PRO4_BAUD: u32 = 115_200;
+
+/// A serial port (or one end of a pty pair).
+pub struct SerialTransport {
+    port: Box<dyn SerialPort>,
+    name: String,
+    timeout: Duration,
+}
+
+impl std::fmt::Debug for SerialTransport {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("SerialTransport")
+            .field("name", &self.name)
+            .finish_non_exhaustive()
+    }
+}
+
+fn io_err(port: &str, source: io::Error) -> TransportError {
+    TransportError::Io {
+        port: port.to_string(),
+        source,
+    }
+}
+
+fn serial_err(port: &str, source: serialport::Error) -> TransportError {
+    TransportError::Serial {
+        port: port.to_string(),
+        source,
+    }
+}
+
+impl SerialTransport {
+    /// Opens `path` at `baud`, 8 data bits, no parity, 1 stop bit, no flow control.
+    ///
+    /// # Errors
+    /// [`TransportError::Serial`] if the port cannot be opened or configured.
+    pub fn open(path: &str, baud: u32) -> Result<Self, TransportError> {
+        let timeout = Duration::from_millis(10);
+        let port = serialport::new(path, baud)
+            .data_bits(DataBits::Eight)
+            .parity(Parity::None)
+            .stop_bits(StopBits::One)
+            .flow_control(FlowControl::None)
+            .timeout(timeout)
+            .open()
+            .map_err(|e| serial_err(path, e))?;
+        Ok(Self {
+            port,
+            name: path.to_string(),
+            timeout,
+        })
+    }
+
+    /// Wraps an already open port.
+    #[must_use]
+    pub fn from_port(port: Box<dyn SerialPort>) -> Self {
+        let name = port.name().unwrap_or_else(|| "serial".to_string());
+        let timeout = port.timeout();
+        Self {
+            port,
+            name,
+            timeout,
+        }
+    }
+
+    /// A pseudo-terminal pair (openpty): `(master, slave, slave_path)`. Bytes written on
+    /// one end are read on the other, with no baud-rate pacing. The slave path can be
+    /// opened again by name (e.g. by [`autodetect`]).
+    ///
+    /// # Errors
+    /// [`TransportError::Serial`] if no pty is available.
+    #[cfg(unix)]
+    pub fn pty_pair() -> Result<(Self, Self, String), TransportError> {
+        let (master, slave) = serialport::TTYPort::pair().map_err(|e| serial_err("pty", e))?;
+        let slave_path = slave.name().unwrap_or_default();
+        let mut master = Self::from_port(Box::new(master));
+        master.name = format!("pty master of {slave_path}");
+        let slave = Self::from_port(Box::new(slave));
+        Ok((master, slave, slave_path))
+    }
+
+    /// Discards unread input.
+    ///
+    /// # Errors
+    /// [`TransportError::Serial`] on failure.
+    pub fn clear_input(&mut self) -> Result<(), TransportError> {
+        self.port
+            .clear(serialport::ClearBuffer::Input)
+            .map_err(|e| serial_err(&self.name, e))
+    }
+}
+
+fn recv_port(
+    port: &mut dyn SerialPort,
+    current: &mut Duration,
+    name: &str,
+    buf: &mut [u8],
+    timeout: Duration,
+) -> Result<usize, TransportError> {
+    if *current != timeout {
+        port.set_timeout(timeout).map_err(|e| serial_err(name, e))?;
+        *current = timeout;
+    }
+    match port.read(buf) {
+        Ok(n) => Ok(n),
+        Err(e)
+            if matches!(
+                e.kind(),
+                io::ErrorKind::TimedOut | io::ErrorKind::WouldBlock | io::ErrorKind::Interrupted
+            ) =>
+        {
+            Ok(0)
+        }
+        Err(e) => Err(io_err(name, e)),
+    }
+}
+
+impl ByteSource for SerialTransport {
+    fn recv(&mut self, buf: &mut [u8], timeout: Duration) -> Result<usize, TransportError> {
+        recv_port(
+            self.port.as_mut(),
+            &mut self.timeout,
+            &self.name,
+            buf,
+            timeout,
+        )
+    }
+}
+
+impl ByteSink for SerialTransport {
+    fn send(&mut self, bytes: &[u8]) -> Result<(), TransportError> {
+        self.port
+            .write_all(bytes)
+            .map_err(|e| io_err(&self.name, e))
+    }
+}
+
+struct SerialHalf {
+    port: Box<dyn SerialPort>,
+    name: String,
+    timeout: Duration,
+}
+
+impl ByteSource for SerialHalf {
+    fn recv(&mut self, buf: &mut [u8], timeout: Duration) -> Result<usize, TransportError> {
+        recv_port(
+            self.port.as_mut(),
+            &mut self.timeout,
+            &self.name,
+            buf,
+            timeout,
+        )
+    }
+}
+
+impl ByteSink for SerialHalf {
+    fn send(&mut self, bytes: &[u8]) -> Result<(), TransportError> {
+        self.port
+            .write_all(bytes)
+            .map_err(|e| io_err(&self.name, e))
+    }
+}
+
+impl Transport for SerialTransport {
+    fn name(&self) -> String {
+        self.name.clone()
+    }
+
+    fn split(self: Box<Self>) -> Result<SplitHalves, TransportError> {
+        let clone = self
+            .port
+            .try_clone()
+            .map_err(|e| serial_err(&self.name, e))?;
+        let writer = SerialHalf {
+            timeout: clone.timeout(),
+            port: clone,
+            name: self.name.clone(),
+        };
+        let reader = SerialHalf {
+            port: self.port,
+            name: self.name,
+            timeout: self.timeout,
+        };
+        Ok((Box::new(reader), Box::new(writer)))
+    }
+}
+
+/// Names of the serial ports the system lists (`serialport::available_ports`, without
+/// libudev: sysfs on Linux).
+///
+/// # Errors
+/// [`TransportError::Serial`] if enumeration fails.
+pub fn available_port_names() -> Result<Vec<String>, TransportError> {
+    serialport::available_ports()
+        .map(|ports| ports.into_iter().map(|p| p.port_name).collect())
+        .map_err(|e| serial_err("enumeration", e))
+}
+
+/// A well-formed response to the autodetect ping.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ProbeReply {
+    /// The port it came from.
+    pub port: String,
+    /// Responder's node ID.
+    pub node: NodeId,
+    /// Response FLAGS.
+    pub flags: u8,
+    /// Responder's device type.
+    pub device_type: Option<DeviceType>,
+    /// Ping to reply.
+    pub rtt: Duration,
+    /// The reply frame.
+    pub frame: Vec<u8>,
+}
+
+/// Sends the ping (`FA AF node 01 00 00 HC 00`) and waits up to `timeout` for any
+/// well-formed response (protocol.md §7 step 1: any valid response means a vehicle).
+///
+/// # Errors
+/// [`TransportError`] if the transport fails.
+pub fn probe(
+    transport: &mut dyn Transport,
+    node: NodeId,
+    timeout: Duration,
+) -> Result<Option<ProbeReply>, TransportError> {
+    let mut ping = [0u8; 8];
+    let n = Ping::encode_request(node, &mut ping).unwrap_or(0);
+    let start = Instant::now();
+    transport.send(ping.get(..n).unwrap_or_default())?;
+    let mut rx = Deframer::host();
+    let mut buf = [0u8; 512];
+    loop {
+        let elapsed = start.elapsed();
+        let Some(left) = timeout.checked_sub(elapsed) else {
+            return Ok(None);
+        };
+        let got = transport.recv(&mut buf, left.min(Duration::from_millis(20)))?;
+        let mut input = buf.get(..got).unwrap_or_default();
+        let now_us = u64::try_from(start.elapsed().as_micros()).unwrap_or(u64::MAX);
+        while let Some(event) = rx.feed(&mut input, now_us) {
+            if let Event::Frame { frame, .. } = event {
+                return Ok(Some(ProbeReply {
+                    port: transport.name(),
+                    node: frame.node(),
+                    flags: frame.flags(),
+                    device_type: frame.device_type(),
+                    rtt: start.elapsed(),
+                    frame: frame.as_bytes().to_vec(),
+                }));
+            }
+        }
+    }
+}
+
+/// What autodetect found on each candidate port.
+#[derive(Debug)]
+pub struct AutodetectReport {
+    /// The first port that answered.
+    pub found: Option<ProbeReply>,
+    /// Every port tried, with the reason it was not chosen (`None` = it answered).
+    pub tried: Vec<(String, Option<String>)>,
+}
+
+/// Tries each candidate port in turn (115200 8N1): sends the ping and stops at the first
+/// port with any well-formed response. Ports that fail to open are skipped and reported.
+#[must_use]
+pub fn autodetect(candidates: &[String], node: NodeId, timeout: Duration) -> AutodetectReport {
+    let mut tried = Vec::with_capacity(candidates.len());
+    for path in candidates {
+        let mut port = match SerialTransport::open(path, PRO4_BAUD) {
+            Ok(p) => p,
+            Err(e) => {
+                tried.push((path.clone(), Some(e.to_string())));
+                continue;
+            }
+        };
+        match probe(&mut port, node, timeout) {
+            Ok(Some(reply)) => {
+                tried.push((path.clone(), None));
+                return AutodetectReport {
+                    found: Some(ProbeReply {
+                        port: path.clone(),
+                        ..reply
+                    }),
+                    tried,
+                };
+            }
+            Ok(None) => tried.push((path.clone(), Some("no response".to_string()))),
+            Err(e) => tried.push((path.clone(), Some(e.to_string()))),
+        }
+    }
+    AutodetectReport { found: None, tried }
+}
