@@ -3,7 +3,12 @@
 //! With no arguments it opens the station on the built-in simulated vehicle. The
 //! subcommands give headless access for scripts and tests; each lives in its own module.
 
+mod cmd_export;
+mod cmd_hold;
+mod cmd_import;
 mod cmd_proto;
+mod cmd_replay;
+mod cmd_session;
 mod cmd_sim;
 mod cmd_sim_paper;
 mod cmd_sim_reference;
@@ -27,6 +32,16 @@ enum Command {
     Proto(cmd_proto::ProtoArgs),
     /// Run the simulator: reproduce the paper's experiments or a Fossen reference case.
     Sim(cmd_sim::SimArgs),
+    /// Depth and heading hold through the mock link and the simulated vehicle (virtual time).
+    Hold(cmd_hold::HoldArgs),
+    /// Replay a recorded session headlessly and fit a model to it.
+    Replay(cmd_replay::ReplayArgs),
+    /// Export a session to the measurement CSV format (plus every decoded channel).
+    Export(cmd_export::ExportArgs),
+    /// Import a measurement CSV as a session.
+    Import(cmd_import::ImportArgs),
+    /// Session file tools (recover a truncated recording).
+    Session(cmd_session::SessionArgs),
 }
 
 fn main() -> std::process::ExitCode {
@@ -34,6 +49,11 @@ fn main() -> std::process::ExitCode {
     let result = match cli.command {
         Some(Command::Proto(args)) => cmd_proto::run(args),
         Some(Command::Sim(args)) => cmd_sim::run(args),
+        Some(Command::Hold(args)) => cmd_hold::run(args),
+        Some(Command::Replay(args)) => cmd_replay::run(args),
+        Some(Command::Export(args)) => cmd_export::run(args),
+        Some(Command::Import(args)) => cmd_import::run(args),
+        Some(Command::Session(args)) => cmd_session::run(args),
         None => Err(anyhow::anyhow!(
             "the station GUI is not built yet; use a subcommand (see --help)"
         )),

@@ -1,0 +1,126 @@
+//! Session benchmarks: recording cost per 50 Hz tick, opening a one-hour file, and
+//! re-simulating a one-hour session through model3.
+//!
+//! Run: `cargo bench -p rov_session -- --warm-up-time 1 --measurement-time 3`
+//!
+//! Targets: a tick (every topic of one 20 ms tick) < 400 µs (2 % of one core); open a
+//! one-hour file < 1 s; re-simulate one hour through model3 < 2 s. The one-hour file
+//! (50 Hz: raw frames both ways, nav, truth, observer, pilot, autopilot, thrust; status and
+//! link stats at 1 Hz; an event every 10 s) is generated once into a temp dir.
+
+#[path = "../tests/common/mod.rs"]
+mod common;
+
+use std::hint::black_box;
+use std::time::Instant;
+
+use criterion::{Criterion, criterion_group, criterion_main};
+use rov_session::{ResimOptions, SessionWriter, WriterOptions, export_csv, open, resimulate};
+
+const HOUR_TICKS: u64 = 50 * 3600;
+
+fn bench_record(c: &mut Criterion) {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let mut g = c.benchmark_group("record");
+    for (name, opts) in [
+        ("tick_50hz_flush_250ms_fsync_1s", WriterOptions::default()),
+        (
+            "tick_50hz_flush_250ms_no_fsync",
+            WriterOptions {
+                sync_interval_ns: u64::MAX,
+                ..WriterOptions::default()
+            },
+        ),
+    ] {
+        let path = dir.path().join(format!("{name}.mcap"));
+        let mut w = SessionWriter::create_with(&path, &common::info(), 0, opts).expect("create");
+        let ticks: Vec<common::Tick> = (0..1000).map(common::tick).collect();
+        let mut k = 0u64;
+        g.bench_function(name, |b| {
+            b.iter(|| {
+                let mut tk = ticks[(k % 1000) as usize].clone();
+                tk.t_ns = k * common::TICK_NS;
+                k += 1;
+                common::write_tick(&mut w, black_box(&tk)).expect("write");
+            })
+        });
+        w.finish().expect("finish");
+    }
+    g.finish();
+}
+
+fn bench_hour(c: &mut Criterion) {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let path = dir.path().join("hour.mcap");
+    let t = Instant::now();
+    let opts = WriterOptions {
+        sync_interval_ns: u64::MAX,
+        ..WriterOptions::default()
+    };
+    let mut w = SessionWriter::create_with(&path, &common::info(), 0, opts).expect("create");
+    for k in 0..HOUR_TICKS {
+        common::write_tick(&mut w, &common::tick(k)).expect("write");
+    }
+    let summary = w.finish().expect("finish");
+    let size = std::fs::metadata(&path).expect("stat").len();
+    eprintln!(
+        "one-hour file: {} messages, {} chunks, {:.1} MB, written in {:.1} s",
+        summary.messages,
+        summary.chunks,
+        size as f64 / 1e6,
+        t.elapsed().as_secs_f64()
+    );
+    // Where opening spends its time: reading the file vs indexing it.
+    let mut read_s = Vec::new();
+    let mut index_s = Vec::new();
+    for _ in 0..5 {
+        let t = Instant::now();
+        let bytes = std::fs::read(&path).expect("read");
+        read_s.push(t.elapsed().as_secs_f64());
+        let t = Instant::now();
+        let s = rov_session::Session::from_bytes(bytes, &path).expect("index");
+        index_s.push(t.elapsed().as_secs_f64());
+        black_box(s.len());
+    }
+    read_s.sort_by(f64::total_cmp);
+    index_s.sort_by(f64::total_cmp);
+    eprintln!(
+        "open one hour, median of 5: read {:.0} ms + decompress/check/index {:.0} ms",
+        read_s[2] * 1e3,
+        index_s[2] * 1e3
+    );
+    let session = open(&path).expect("open");
+    let t = Instant::now();
+    let csv = export_csv(&session).expect("export");
+    eprintln!(
+        "export of the one-hour file: {} rows x {} extra columns, {:.1} MB of CSV in {:.2} s",
+        csv.rows,
+        csv.extra_columns.len(),
+        csv.text.len() as f64 / 1e6,
+        t.elapsed().as_secs_f64()
+    );
+    drop(csv);
+
+    let mut g = c.benchmark_group("one_hour");
+    g.sample_size(10);
+    g.bench_function("open", |b| {
+        b.iter(|| black_box(open(&path).expect("open")).len())
+    });
+    g.bench_function("open_and_decode_nav", |b| {
+        b.iter(|| {
+            let s = open(&path).expect("open");
+            black_box(s.records::<rov_session::NavRecord>().expect("nav").len())
+        })
+    });
+    let m3 = rov_dynamics::load_default_model("model3").expect("model3");
+    g.bench_function("resimulate_model3", |b| {
+        b.iter(|| {
+            let r = resimulate(&session, m3.as_ref(), &ResimOptions::default()).expect("resim");
+            black_box(r.fits.len())
+        })
+    });
+    g.finish();
+}
+
+criterion_group!(benches, bench_record, bench_hour);
+criterion_main!(benches);

@@ -1,0 +1,475 @@
+//! `topside hold`: the station's control loop closed through the mock link and the
+//! simulated vehicle, on virtual time.
+//!
+//! * Truth: the 6-DOF simulator with model3's nominal parameters (Munk moments zeroed, the
+//!   documented default of `config/models/model3.toml`), sensor noise on, seeded.
+//! * The selected model supplies only the feedforward, so model1 and model2 control a
+//!   vehicle that differs from them.
+//! * `current`: a constant 0.3 m/s current flowing toward north. `tether`: a 0.8 N
+//!   horizontal pull toward azimuth 135°, fixed in the earth frame, applied at
+//!   (−0.20, 0, −0.08) m from CO.
+//! * Sequence: the link connects (ping → register dump → control), the station arms as
+//!   soon as the link allows (1 s of healthy link), engages both holds with the targets,
+//!   and from that instant (t = 0 of the metrics) runs for `duration_s`.
+//! * Metrics use the true state (see [`crate::metrics`]).
+
+use nalgebra::Vector3;
+use rov_control::{ControlConfig, ModeCommand, ModelChoice, ModelSet};
+use rov_driver::{Link, LinkConfig, LinkEvent};
+use rov_dynamics::InitialConditions;
+use rov_dynamics::current::CurrentModel;
+use rov_sim::{SimConfig, Simulator, TetherForce};
+use rov_vehicle::{SimApp, SimLink, Vehicle, VehicleConfig};
+use serde::Serialize;
+
+use crate::core::{StationCommand, StationCore};
+use crate::metrics::{StepMetrics, rmse_between, step_metrics, wrap_deg};
+
+/// Control period, µs (50 Hz).
+pub const TICK_US: u64 = 20_000;
+
+/// A disturbance acting on the simulated vehicle.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Disturbance {
+    /// Still water, no tether.
+    #[default]
+    None,
+    /// A constant 0.3 m/s current flowing toward north.
+    Current,
+    /// A 0.8 N horizontal pull toward azimuth 135°, earth-fixed, at (−0.20, 0, −0.08) m.
+    Tether,
+}
+
+/// What to run.
+#[derive(Debug, Clone, PartialEq)]
+pub struct HoldSpec {
+    /// Feedforward model.
+    pub model: ModelChoice,
+    /// Depth target, m.
+    pub depth_m: f64,
+    /// Heading target, degrees.
+    pub heading_deg: f64,
+    /// Run length after engagement, s.
+    pub duration_s: f64,
+    /// Starting depth, m.
+    pub start_depth_m: f64,
+    /// Starting heading, degrees.
+    pub start_heading_deg: f64,
+    /// Disturbance.
+    pub disturbance: Disturbance,
+    /// Feedforward on.
+    pub feedforward: bool,
+    /// Observer on.
+    pub observer: bool,
+    /// Seed of the sensor noise.
+    pub seed: u64,
+    /// Control configuration (gains, limits, observer noise).
+    pub control: ControlConfig,
+}
+
+impl HoldSpec {
+    /// The default scenario: start 2 m shallower and 90° off.
+    pub fn step(model: ModelChoice, depth_m: f64, heading_deg: f64, duration_s: f64) -> Self {
+        Self {
+            model,
+            depth_m,
+            heading_deg,
+            duration_s,
+            start_depth_m: depth_m - 2.0,
+            start_heading_deg: (heading_deg - 90.0).rem_euclid(360.0),
+            disturbance: Disturbance::None,
+            feedforward: true,
+            observer: true,
+            seed: 1,
+            control: ControlConfig::default(),
+        }
+    }
+}
+
+/// Depth metrics in the CLI's JSON layout.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct DepthReport {
+    /// Settling time, s.
+    pub settle_s: Option<f64>,
+    /// Overshoot, % of the step.
+    pub overshoot_pct: f64,
+    /// |mean error| over the last 10 s, m.
+    pub steady_error_m: f64,
+    /// RMSE over the run, m.
+    pub rmse_m: f64,
+}
+
+/// Heading metrics in the CLI's JSON layout.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct HeadingReport {
+    /// Settling time, s.
+    pub settle_s: Option<f64>,
+    /// Overshoot, degrees.
+    pub overshoot_deg: f64,
+    /// |mean error| over the last 10 s, degrees.
+    pub steady_error_deg: f64,
+    /// RMSE over the run, degrees.
+    pub rmse_deg: f64,
+}
+
+/// Thrust statistics.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct ThrustReport {
+    /// Share of ticks with any thruster at its ±100 % limit, %.
+    pub saturated_pct: f64,
+}
+
+/// Observer accuracy against the truth.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct ObserverReport {
+    /// Depth estimate RMSE, m.
+    pub depth_rmse_m: f64,
+    /// Heading estimate RMSE, degrees.
+    pub heading_rmse_deg: f64,
+}
+
+/// The result of a hold run, serialised exactly as `topside hold --json` prints it.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct HoldReport {
+    /// Depth channel.
+    pub depth: DepthReport,
+    /// Heading channel.
+    pub heading: HeadingReport,
+    /// Thrust.
+    pub thrust: ThrustReport,
+    /// Observer.
+    pub observer: ObserverReport,
+}
+
+/// Time series of a hold run (for tests, plots and the RMSE of raw measurements).
+#[derive(Debug, Clone, Default)]
+pub struct HoldTrace {
+    /// Time since engagement, s.
+    pub t_s: Vec<f64>,
+    /// True depth, m.
+    pub depth_true_m: Vec<f64>,
+    /// True heading, degrees.
+    pub heading_true_deg: Vec<f64>,
+    /// Measured depth (latest telemetry), m.
+    pub depth_meas_m: Vec<f64>,
+    /// Measured heading, degrees.
+    pub heading_meas_deg: Vec<f64>,
+    /// Observer depth estimate, m.
+    pub depth_est_m: Vec<f64>,
+    /// Observer heading estimate, degrees.
+    pub heading_est_deg: Vec<f64>,
+    /// Reference depth (setpoint), m.
+    pub depth_ref_m: Vec<f64>,
+    /// Reference heading (setpoint), degrees.
+    pub heading_ref_deg: Vec<f64>,
+    /// Commanded thrust [port, starboard, vertical], %.
+    pub thrust_pct: Vec<[f64; 3]>,
+    /// Reference-model depth (the smoothed trajectory the loop tracks), m.
+    pub depth_traj_m: Vec<f64>,
+    /// Reference-model heading, degrees.
+    pub heading_traj_deg: Vec<f64>,
+    /// Observer depth-channel bias, N (positive down).
+    pub depth_bias_n: Vec<f64>,
+    /// Observer heading-channel bias, N·m (positive to starboard).
+    pub heading_bias_nm: Vec<f64>,
+}
+
+/// Why a hold run failed.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum HoldError {
+    /// Bad input.
+    #[error("invalid hold request: {0}")]
+    Invalid(String),
+    /// The simulator failed.
+    #[error("simulator: {0}")]
+    Sim(#[from] rov_sim::SimError),
+    /// The vehicle failed.
+    #[error("vehicle: {0}")]
+    Vehicle(#[from] rov_vehicle::VehicleError),
+    /// The controller refused its configuration or a command.
+    #[error("control: {0}")]
+    Control(#[from] rov_control::ControlError),
+    /// The station refused a command.
+    #[error("station: {0}")]
+    Command(#[from] crate::core::CommandError),
+    /// The link configuration is invalid.
+    #[error("link: {0}")]
+    Link(#[from] rov_driver::ConfigError),
+    /// The link never became armable.
+    #[error("the link did not come up within {0} s of virtual time")]
+    NoLink(f64),
+    /// A model file failed to load.
+    #[error("model: {0}")]
+    Model(#[from] rov_types::ConfigError),
+}
+
+/// A custom step applied each tick after engagement (for moving-reference tests):
+/// returns the setpoints to command at time `t_s` since engagement, or None to leave them.
+pub type ReferenceSchedule = dyn FnMut(f64) -> Option<(f64, f64)>;
+
+struct App<'a> {
+    core: StationCore,
+    spec: &'a HoldSpec,
+    engaged_us: Option<u64>,
+    end_us: u64,
+    trace: HoldTrace,
+    saturated_ticks: u64,
+    ticks_after: u64,
+    error: Option<HoldError>,
+    schedule: Option<&'a mut ReferenceSchedule>,
+}
+
+impl SimApp for App<'_> {
+    fn on_event(&mut self, link: &mut Link, _vehicle: &Vehicle, event: LinkEvent, _now_us: u64) {
+        self.core.on_event(link, &event);
+    }
+
+    fn on_tick(&mut self, link: &mut Link, vehicle: &mut Vehicle, now_us: u64) {
+        if self.error.is_some() {
+            return;
+        }
+        if self.engaged_us.is_none() && link.arm(now_us).is_ok() {
+            if let Err(e) = self.engage(link, now_us) {
+                self.error = Some(e);
+                return;
+            }
+            self.engaged_us = Some(now_us);
+            self.end_us = now_us + (self.spec.duration_s * 1e6).round() as u64;
+        }
+        if let (Some(t0), Some(schedule)) = (self.engaged_us, self.schedule.as_mut()) {
+            let t = (now_us.saturating_sub(t0)) as f64 * 1e-6;
+            if let Some((d, h)) = schedule(t) {
+                let r1 = self.core.command(
+                    link,
+                    StationCommand::Mode(ModeCommand::SetDepth { depth_m: d }),
+                    now_us,
+                );
+                let r2 = self.core.command(
+                    link,
+                    StationCommand::Mode(ModeCommand::SetHeading { heading_deg: h }),
+                    now_us,
+                );
+                if let Err(e) = r1.and(r2) {
+                    self.error = Some(e.into());
+                }
+            }
+        }
+        let out = self.core.tick(link, now_us);
+        let Some(t0) = self.engaged_us else { return };
+        let truth = vehicle.sim().truth();
+        let eta = truth.state.eta;
+        let d = &out.diagnostics;
+        let meas = self.core.last_telemetry();
+        self.trace.t_s.push((now_us - t0) as f64 * 1e-6);
+        self.trace.depth_true_m.push(eta.z);
+        self.trace
+            .heading_true_deg
+            .push(eta.b.to_degrees().rem_euclid(360.0));
+        self.trace
+            .depth_meas_m
+            .push(meas.map_or(f64::NAN, |m| m.depth_m));
+        self.trace
+            .heading_meas_deg
+            .push(meas.map_or(f64::NAN, |m| m.heading_deg));
+        self.trace
+            .depth_est_m
+            .push(d.depth_estimate_m().unwrap_or(f64::NAN));
+        self.trace
+            .heading_est_deg
+            .push(d.heading_estimate_deg().unwrap_or(f64::NAN));
+        self.trace
+            .depth_ref_m
+            .push(d.depth_setpoint_m().unwrap_or(f64::NAN));
+        self.trace
+            .heading_ref_deg
+            .push(d.heading_setpoint_deg().unwrap_or(f64::NAN));
+        self.trace.depth_traj_m.push(d.depth.reference.pos);
+        self.trace
+            .heading_traj_deg
+            .push(d.heading.reference.pos.to_degrees().rem_euclid(360.0));
+        self.trace
+            .depth_bias_n
+            .push(d.depth.estimate.map_or(f64::NAN, |e| e.bias));
+        self.trace
+            .heading_bias_nm
+            .push(d.heading.estimate.map_or(f64::NAN, |e| e.bias));
+        let c = out.command;
+        let th = [c.port_pct(), c.starboard_pct(), c.vertical_pct()];
+        self.trace.thrust_pct.push(th);
+        self.ticks_after += 1;
+        if th.iter().any(|x| x.abs() >= 99.5) {
+            self.saturated_ticks += 1;
+        }
+    }
+}
+
+impl App<'_> {
+    fn engage(&mut self, link: &mut Link, now_us: u64) -> Result<(), HoldError> {
+        let s = self.spec;
+        for m in [
+            ModeCommand::SelectModel(s.model),
+            ModeCommand::SetFeedforward(s.feedforward),
+            ModeCommand::SetDepth { depth_m: s.depth_m },
+            ModeCommand::SetHeading {
+                heading_deg: s.heading_deg,
+            },
+        ] {
+            self.core.command(link, StationCommand::Mode(m), now_us)?;
+        }
+        Ok(())
+    }
+}
+
+/// Builds the simulated vehicle of a hold run.
+fn build_vehicle(spec: &HoldSpec) -> Result<Vehicle, HoldError> {
+    let mut cfg = SimConfig::default_model3()?;
+    cfg.initial = InitialConditions::at_rest(spec.start_depth_m, spec.start_heading_deg);
+    if spec.disturbance == Disturbance::Current {
+        cfg.current = CurrentModel::Constant {
+            speed_mps: 0.3,
+            vertical_angle_rad: 0.0,
+            direction_rad: 0.0,
+        };
+    }
+    let mut sim = Simulator::new(cfg, spec.seed)?;
+    if spec.disturbance == Disturbance::Tether {
+        let az = 135f64.to_radians();
+        sim.set_external_force(Some(Box::new(TetherForce {
+            force_ned_n: Vector3::new(0.8 * az.cos(), 0.8 * az.sin(), 0.0),
+            attach_body_m: Vector3::new(-0.20, 0.0, -0.08),
+        })));
+    }
+    Ok(Vehicle::new(VehicleConfig::default(), sim))
+}
+
+/// Runs a hold and returns its report and trace.
+pub fn run_hold(spec: &HoldSpec) -> Result<(HoldReport, HoldTrace), HoldError> {
+    run_hold_with(spec, None)
+}
+
+/// [`run_hold`] with a setpoint schedule applied after engagement (moving references).
+pub fn run_hold_with(
+    spec: &HoldSpec,
+    schedule: Option<&mut ReferenceSchedule>,
+) -> Result<(HoldReport, HoldTrace), HoldError> {
+    let finite = [
+        spec.depth_m,
+        spec.heading_deg,
+        spec.duration_s,
+        spec.start_depth_m,
+        spec.start_heading_deg,
+    ];
+    if finite.iter().any(|x| !x.is_finite())
+        || spec.duration_s <= 0.0
+        || spec.duration_s > 24.0 * 3600.0
+    {
+        return Err(HoldError::Invalid(format!(
+            "targets, start and duration must be finite and the duration in (0, 86400] s: {spec:?}"
+        )));
+    }
+    if !(0.0..=300.0).contains(&spec.depth_m) || !(0.0..=300.0).contains(&spec.start_depth_m) {
+        return Err(HoldError::Invalid(
+            "depths must lie in 0..=300 m (the Pro 4's rating)".into(),
+        ));
+    }
+    let mut control = spec.control;
+    control.observer_enabled = spec.observer;
+    control.feedforward_model = spec.model;
+    control.feedforward_enabled = spec.feedforward;
+    let core = StationCore::new(control, ModelSet::load_default()?)?;
+    let link = Link::new(LinkConfig::default())?;
+    let vehicle = build_vehicle(spec)?;
+    let mut sim = SimLink::new(link, vehicle, TICK_US);
+    let mut app = App {
+        core,
+        spec,
+        engaged_us: None,
+        end_us: u64::MAX,
+        trace: HoldTrace::default(),
+        saturated_ticks: 0,
+        ticks_after: 0,
+        error: None,
+        schedule,
+    };
+    // Bring the link up (at most 10 s of virtual time), then run to the end.
+    let mut t_us = 0u64;
+    while app.engaged_us.is_none() {
+        t_us += 100_000;
+        if t_us > 10_000_000 {
+            return Err(HoldError::NoLink(10.0));
+        }
+        sim.run_until(t_us, &mut app)?;
+        if let Some(e) = app.error.take() {
+            return Err(e);
+        }
+    }
+    sim.run_until(app.end_us, &mut app)?;
+    if let Some(e) = app.error.take() {
+        return Err(e);
+    }
+    let tr = app.trace;
+    let depth_samples: Vec<(f64, f64)> = tr
+        .t_s
+        .iter()
+        .copied()
+        .zip(tr.depth_true_m.iter().copied())
+        .collect();
+    let heading_samples: Vec<(f64, f64)> = tr
+        .t_s
+        .iter()
+        .copied()
+        .zip(tr.heading_true_deg.iter().copied())
+        .collect();
+    let dm: StepMetrics = step_metrics(
+        &depth_samples,
+        spec.start_depth_m,
+        spec.depth_m,
+        false,
+        0.02,
+    );
+    let hm: StepMetrics = step_metrics(
+        &heading_samples,
+        spec.start_heading_deg,
+        spec.heading_deg,
+        true,
+        1.0,
+    );
+    let report = HoldReport {
+        depth: DepthReport {
+            settle_s: dm.settle_s,
+            overshoot_pct: dm.overshoot,
+            steady_error_m: dm.steady_error,
+            rmse_m: dm.rmse,
+        },
+        heading: HeadingReport {
+            settle_s: hm.settle_s,
+            overshoot_deg: hm.overshoot,
+            steady_error_deg: hm.steady_error,
+            rmse_deg: hm.rmse,
+        },
+        thrust: ThrustReport {
+            saturated_pct: if app.ticks_after == 0 {
+                0.0
+            } else {
+                100.0 * app.saturated_ticks as f64 / app.ticks_after as f64
+            },
+        },
+        observer: ObserverReport {
+            depth_rmse_m: rmse_between(&tr.depth_est_m, &tr.depth_true_m, false),
+            heading_rmse_deg: rmse_between(&tr.heading_est_deg, &tr.heading_true_deg, true),
+        },
+    };
+    Ok((report, tr))
+}
+
+/// RMSE of a trace's values against its reference (for tracking tests).
+pub fn tracking_rmse(values: &[f64], reference: &[f64], angular: bool) -> f64 {
+    let e: Vec<f64> = values
+        .iter()
+        .zip(reference)
+        .map(|(v, r)| if angular { wrap_deg(v - r) } else { v - r })
+        .collect();
+    let zeros = vec![0.0; e.len()];
+    rmse_between(&e, &zeros, false)
+}

@@ -1,0 +1,22 @@
+//! The station runtime.
+//!
+//! * [`core`]: the station logic between the link and the controller (events in, one
+//!   control tick out, failsafe wiring, pilot commands, a snapshot for the GUI).
+//! * [`hold`]: the `topside hold` scenario on virtual time (mock link + simulated vehicle).
+//! * [`metrics`]: step-response metrics on the true state.
+#![cfg_attr(
+    not(test),
+    deny(
+        clippy::unwrap_used,
+        clippy::expect_used,
+        clippy::indexing_slicing,
+        clippy::panic
+    )
+)]
+
+pub mod core;
+pub mod hold;
+pub mod metrics;
+
+pub use core::{CommandError, Snapshot, StationCommand, StationCore};
+pub use hold::{Disturbance, HoldError, HoldReport, HoldSpec, HoldTrace, run_hold, run_hold_with};
