@@ -19,8 +19,38 @@ use rov_session::{ResimOptions, SessionWriter, WriterOptions, export_csv, open, 
 
 const HOUR_TICKS: u64 = 50 * 3600;
 
+/// CPU time of this process so far (user + system, all threads), s; 10 ms resolution.
+fn cpu_s() -> f64 {
+    let stat = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
+    let fields: Vec<f64> = stat
+        .rsplit_once(')')
+        .map_or("", |(_, rest)| rest)
+        .split_whitespace()
+        .map(|f| f.parse().unwrap_or(0.0))
+        .collect();
+    // utime and stime are fields 14 and 15 of stat(5), in clock ticks (100 per second).
+    (fields.get(11).copied().unwrap_or(0.0) + fields.get(12).copied().unwrap_or(0.0)) / 100.0
+}
+
 fn bench_record(c: &mut Criterion) {
     let dir = tempfile::tempdir().expect("tempdir");
+    // CPU time per tick over 5 minutes of session (15 000 ticks), default options.
+    {
+        let path = dir.path().join("cpu.mcap");
+        let ticks: Vec<common::Tick> = (0..15_000).map(common::tick).collect();
+        let (cpu0, wall0) = (cpu_s(), Instant::now());
+        let mut w = SessionWriter::create(&path, &common::info(), 0).expect("create");
+        for tk in &ticks {
+            common::write_tick(&mut w, tk).expect("write");
+        }
+        w.finish().expect("finish");
+        eprintln!(
+            "recording, default options: {:.1} µs CPU and {:.1} µs wall per 50 Hz tick ({:.2} % of a core)",
+            (cpu_s() - cpu0) / 15_000.0 * 1e6,
+            wall0.elapsed().as_secs_f64() / 15_000.0 * 1e6,
+            (cpu_s() - cpu0) / 300.0 * 100.0
+        );
+    }
     let mut g = c.benchmark_group("record");
     for (name, opts) in [
         ("tick_50hz_flush_250ms_fsync_1s", WriterOptions::default()),
@@ -70,9 +100,11 @@ fn bench_hour(c: &mut Criterion) {
         size as f64 / 1e6,
         t.elapsed().as_secs_f64()
     );
-    // Where opening spends its time: reading the file vs indexing it.
+    // Where opening spends its time: reading the file vs indexing it; and the CPU time of
+    // an open (all threads), which does not depend on how busy the machine is.
     let mut read_s = Vec::new();
     let mut index_s = Vec::new();
+    let (cpu0, wall0) = (cpu_s(), Instant::now());
     for _ in 0..5 {
         let t = Instant::now();
         let bytes = std::fs::read(&path).expect("read");
@@ -82,12 +114,16 @@ fn bench_hour(c: &mut Criterion) {
         index_s.push(t.elapsed().as_secs_f64());
         black_box(s.len());
     }
+    let (cpu, wall) = ((cpu_s() - cpu0) / 5.0, wall0.elapsed().as_secs_f64() / 5.0);
     read_s.sort_by(f64::total_cmp);
     index_s.sort_by(f64::total_cmp);
     eprintln!(
-        "open one hour, median of 5: read {:.0} ms + decompress/check/index {:.0} ms",
+        "open one hour, median of 5: read {:.0} ms + decompress/check/index {:.0} ms; \
+         mean wall {:.0} ms, mean CPU {:.0} ms (all threads)",
         read_s[2] * 1e3,
-        index_s[2] * 1e3
+        index_s[2] * 1e3,
+        wall * 1e3,
+        cpu * 1e3
     );
     let session = open(&path).expect("open");
     let t = Instant::now();
@@ -113,6 +149,16 @@ fn bench_hour(c: &mut Criterion) {
         })
     });
     let m3 = rov_dynamics::load_default_model("model3").expect("model3");
+    let (cpu0, wall0) = (cpu_s(), Instant::now());
+    for _ in 0..3 {
+        let r = resimulate(&session, m3.as_ref(), &ResimOptions::default()).expect("resim");
+        black_box(r.fits.len());
+    }
+    eprintln!(
+        "re-simulate one hour through model3: mean wall {:.0} ms, mean CPU {:.0} ms",
+        wall0.elapsed().as_secs_f64() / 3.0 * 1e3,
+        (cpu_s() - cpu0) / 3.0 * 1e3
+    );
     g.bench_function("resimulate_model3", |b| {
         b.iter(|| {
             let r = resimulate(&session, m3.as_ref(), &ResimOptions::default()).expect("resim");
