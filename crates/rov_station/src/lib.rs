@@ -4,6 +4,8 @@
 //!   control tick out, failsafe wiring, pilot commands, a snapshot for the GUI).
 //! * [`hold`]: the `topside hold` scenario on virtual time (mock link + simulated vehicle).
 //! * [`metrics`]: step-response metrics on the true state.
+//! * [`runtime`]: the real-time runtime (threads, deadlines, watchdog, gamepad, recording,
+//!   replay) behind a [`StationHandle`] for the GUI.
 #![cfg_attr(
     not(test),
     deny(
@@ -17,6 +19,11 @@
 pub mod core;
 pub mod hold;
 pub mod metrics;
+pub mod runtime;
 
 pub use core::{CommandError, Snapshot, StationCommand, StationCore};
 pub use hold::{Disturbance, HoldError, HoldReport, HoldSpec, HoldTrace, run_hold, run_hold_with};
+pub use runtime::{
+    Connection, Runtime, RuntimeCommand, RuntimeConfig, RuntimeError, StationHandle, StationView,
+    VirtualReplay, VirtualStation,
+};

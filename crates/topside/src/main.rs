@@ -6,12 +6,14 @@
 mod cmd_export;
 mod cmd_hold;
 mod cmd_import;
+mod cmd_lab;
 mod cmd_proto;
 mod cmd_replay;
 mod cmd_session;
 mod cmd_sim;
 mod cmd_sim_paper;
 mod cmd_sim_reference;
+mod cmd_station;
 
 use clap::{Parser, Subcommand};
 
@@ -24,6 +26,15 @@ use clap::{Parser, Subcommand};
 struct Cli {
     #[command(subcommand)]
     command: Option<Command>,
+    /// Fly a real Pro 4 on this serial port (default: the built-in simulated vehicle).
+    #[arg(long, value_name = "PATH")]
+    port: Option<String>,
+    /// Test hook: screenshot the window to this PNG, then exit.
+    #[arg(long, value_name = "PATH", hide = true)]
+    screenshot: Option<std::path::PathBuf>,
+    /// Test hook: seconds to wait before the screenshot.
+    #[arg(long, value_name = "S", hide = true, default_value_t = 3.0)]
+    screenshot_after_s: f64,
 }
 
 #[derive(Debug, Subcommand)]
@@ -42,6 +53,8 @@ enum Command {
     Import(cmd_import::ImportArgs),
     /// Session file tools (recover a truncated recording).
     Session(cmd_session::SessionArgs),
+    /// Model lab: compare a model with measurements, diagnose and add missing effects.
+    Lab(cmd_lab::LabArgs),
 }
 
 fn main() -> std::process::ExitCode {
@@ -54,9 +67,11 @@ fn main() -> std::process::ExitCode {
         Some(Command::Export(args)) => cmd_export::run(args),
         Some(Command::Import(args)) => cmd_import::run(args),
         Some(Command::Session(args)) => cmd_session::run(args),
-        None => Err(anyhow::anyhow!(
-            "the station GUI is not built yet; use a subcommand (see --help)"
-        )),
+        Some(Command::Lab(args)) => cmd_lab::run(args),
+        None => cmd_station::run_station(
+            cli.port,
+            cli.screenshot.map(|p| (p, cli.screenshot_after_s)),
+        ),
     };
     match result {
         Ok(code) => code,

@@ -1,0 +1,630 @@
+//! The station application: state, the frame, the top bar, the alarm bar, keyboard
+//! input, and the tabs.
+//!
+//! Layout (a pilot's priorities): the top bar always shows arming, thrust gain, link
+//! quality, recording and the REPLAY badge; latched alarms sit right under it in red
+//! until acknowledged (never a modal dialog); the Fly tab has the instruments in the
+//! middle and the autopilot, health and camera controls beside them.
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::Receiver;
+use std::time::Duration;
+
+use egui::{Color32, Key, RichText, Ui, vec2};
+use rov_control::PilotInput;
+use rov_station::StationCommand;
+use rov_station::runtime::{
+    AlarmKind, Connection, GainCommand, History, RuntimeCommand, StationHandle, StationView,
+};
+
+use crate::theme;
+
+/// Where the app gets its stations from (real threads, or virtual ones in tests).
+pub trait Backend {
+    /// Starts a live station.
+    ///
+    /// # Errors
+    /// A message for the pilot.
+    fn connect(&mut self, connection: &Connection) -> Result<StationHandle, String>;
+    /// Opens a recorded session for replay.
+    ///
+    /// # Errors
+    /// A message for the pilot.
+    fn open_replay(&mut self, path: &Path) -> Result<StationHandle, String>;
+    /// Serial ports to offer.
+    fn ports(&mut self) -> Vec<String>;
+    /// Pings the ports in the background; the receiver yields one result.
+    fn autodetect(&mut self, ports: Vec<String>) -> Receiver<AutodetectResult>;
+    /// A fresh recording file name.
+    fn recording_path(&mut self) -> PathBuf;
+}
+
+/// What an autodetect found.
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
+pub struct AutodetectResult {
+    /// The port that answered the ping.
+    pub found: Option<String>,
+    /// Every port tried, with why it was not chosen.
+    pub tried: Vec<(String, Option<String>)>,
+}
+
+/// The tabs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Tab {
+    /// Instruments and controls.
+    #[default]
+    Fly,
+    /// Time plots.
+    Plots,
+    /// Replay a session.
+    Replay,
+    /// The model lab.
+    Lab,
+    /// Vehicle connection.
+    Connection,
+}
+
+impl Tab {
+    const ALL: [(Tab, &'static str); 5] = [
+        (Tab::Fly, "Fly"),
+        (Tab::Plots, "Plots"),
+        (Tab::Replay, "Replay"),
+        (Tab::Lab, "Model lab"),
+        (Tab::Connection, "Connection"),
+    ];
+}
+
+/// A request to screenshot the window after some seconds, save it and close.
+#[derive(Debug)]
+pub struct ScreenshotRequest {
+    /// PNG path.
+    pub path: PathBuf,
+    /// Seconds after the first frame.
+    pub after_s: f64,
+    pub(crate) state: ScreenshotState,
+}
+
+#[derive(Debug, Default)]
+pub(crate) struct ScreenshotState {
+    pub started: Option<std::time::Instant>,
+    pub requested: bool,
+    pub done: Arc<AtomicBool>,
+    pub ok: Arc<AtomicBool>,
+}
+
+impl ScreenshotRequest {
+    /// A request.
+    #[must_use]
+    pub fn new(path: PathBuf, after_s: f64) -> Self {
+        Self {
+            path,
+            after_s,
+            state: ScreenshotState::default(),
+        }
+    }
+
+    /// Whether the screenshot was saved.
+    #[must_use]
+    pub fn saved(&self) -> bool {
+        self.state.ok.load(Ordering::Relaxed)
+    }
+
+    /// A flag that turns true once the screenshot is saved (readable after the window
+    /// closed and the app was dropped).
+    #[must_use]
+    pub fn saved_flag(&self) -> Arc<AtomicBool> {
+        Arc::clone(&self.state.ok)
+    }
+}
+
+/// The station application; see the module docs.
+pub struct StationApp {
+    pub(crate) backend: Box<dyn Backend>,
+    pub(crate) live: Option<StationHandle>,
+    pub(crate) live_view: StationView,
+    pub(crate) live_hist: History,
+    pub(crate) replay: Option<StationHandle>,
+    pub(crate) replay_view: StationView,
+    pub(crate) replay_hist: History,
+    pub(crate) tab: Tab,
+    pub(crate) depth_drag: Option<f64>,
+    pub(crate) heading_drag: Option<f64>,
+    pub(crate) depth_text: String,
+    pub(crate) heading_text: String,
+    pub(crate) onboard: bool,
+    pub(crate) shaping: rov_station::runtime::StickShaping,
+    pub(crate) kb_active: bool,
+    pub(crate) arm_reported: bool,
+    pub(crate) space_held: bool,
+    pub(crate) conn: crate::connection::ConnectionState,
+    pub(crate) replay_path: String,
+    pub(crate) plot_window_s: f64,
+    pub(crate) lab: crate::lab::LabState,
+    pub(crate) message: Option<String>,
+    pub(crate) screenshot: Option<ScreenshotRequest>,
+    pub(crate) repaint_ms: u64,
+    pub(crate) styled: bool,
+}
+
+impl std::fmt::Debug for StationApp {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("StationApp")
+            .field("tab", &self.tab)
+            .finish_non_exhaustive()
+    }
+}
+
+impl StationApp {
+    /// An app connected to `live` (if any), getting further stations from `backend`.
+    #[must_use]
+    pub fn new(backend: Box<dyn Backend>, live: Option<StationHandle>) -> Self {
+        let mut app = Self {
+            backend,
+            live: None,
+            live_view: StationView::default(),
+            live_hist: History::default(),
+            replay: None,
+            replay_view: StationView::default(),
+            replay_hist: History::default(),
+            tab: Tab::Fly,
+            depth_drag: None,
+            heading_drag: None,
+            depth_text: String::new(),
+            heading_text: String::new(),
+            onboard: false,
+            shaping: rov_station::runtime::StickShaping::default(),
+            kb_active: false,
+            arm_reported: false,
+            space_held: false,
+            conn: crate::connection::ConnectionState::default(),
+            replay_path: String::new(),
+            plot_window_s: 120.0,
+            lab: crate::lab::LabState::default(),
+            message: None,
+            screenshot: None,
+            repaint_ms: 33,
+            styled: false,
+        };
+        app.set_live(live);
+        app
+    }
+
+    /// Takes a screenshot after `after_s` seconds, saves it and closes the window.
+    #[must_use]
+    pub fn with_screenshot(mut self, req: ScreenshotRequest) -> Self {
+        self.screenshot = Some(req);
+        self
+    }
+
+    /// Selects a tab.
+    pub fn set_tab(&mut self, tab: Tab) {
+        self.tab = tab;
+    }
+
+    /// The tab shown.
+    #[must_use]
+    pub const fn tab(&self) -> Tab {
+        self.tab
+    }
+
+    /// The live view last read.
+    #[must_use]
+    pub const fn live_view(&self) -> &StationView {
+        &self.live_view
+    }
+
+    /// The replay view last read, when replaying.
+    #[must_use]
+    pub fn replay_view(&self) -> Option<&StationView> {
+        self.replay.as_ref().map(|_| &self.replay_view)
+    }
+
+    /// Shows fixed data without a station (benchmarks, demos): the view and history
+    /// stay until a station is connected.
+    pub fn show_offline(&mut self, view: StationView, history: History) {
+        self.live = None;
+        self.live_view = view;
+        self.live_hist = history;
+    }
+
+    /// Sets the plot window, s (`f64::INFINITY`: everything).
+    pub fn set_plot_window(&mut self, window_s: f64) {
+        self.plot_window_s = window_s;
+    }
+
+    /// The live history held by the GUI.
+    #[must_use]
+    pub const fn live_history(&self) -> &History {
+        &self.live_hist
+    }
+
+    /// Whether the screenshot (if requested) has been saved.
+    #[must_use]
+    pub fn screenshot_saved(&self) -> bool {
+        self.screenshot
+            .as_ref()
+            .is_some_and(ScreenshotRequest::saved)
+    }
+
+    /// Shows a message in the status line.
+    pub fn set_message(&mut self, m: String) {
+        self.message = Some(m);
+    }
+
+    /// The message line (errors from the last action).
+    #[must_use]
+    pub fn message(&self) -> Option<&str> {
+        self.message.as_deref()
+    }
+
+    /// The lab state (for tests).
+    #[must_use]
+    pub fn lab(&self) -> &crate::lab::LabState {
+        &self.lab
+    }
+
+    pub(crate) fn set_live(&mut self, live: Option<StationHandle>) {
+        self.live = live;
+        self.live_hist = History::default();
+        self.live_view = StationView::default();
+        self.poll();
+    }
+
+    /// Opens a session for replay (errors go to the message line).
+    pub fn open_replay(&mut self, path: &Path) {
+        match self.backend.open_replay(path) {
+            Ok(h) => {
+                self.replay = Some(h);
+                self.replay_hist = History::default();
+                self.message = None;
+                self.poll();
+            }
+            Err(e) => self.message = Some(format!("cannot open {}: {e}", path.display())),
+        }
+    }
+
+    /// Closes the replay (back to live).
+    pub fn close_replay(&mut self) {
+        self.replay = None;
+        self.replay_hist = History::default();
+    }
+
+    /// Sends a command to the live station.
+    pub(crate) fn live_cmd(&mut self, c: RuntimeCommand) {
+        if let Some(h) = &self.live
+            && !h.command(c)
+        {
+            self.message = Some("command queue full: command dropped".into());
+        }
+    }
+
+    pub(crate) fn replay_cmd(&self, c: rov_station::runtime::ReplayCommand) {
+        if let Some(h) = &self.replay {
+            h.command(RuntimeCommand::Replay(c));
+        }
+    }
+
+    /// The view the instruments show (the replay's while replaying).
+    pub(crate) fn shown(&self) -> (&StationView, &History) {
+        if self.replay.is_some() {
+            (&self.replay_view, &self.replay_hist)
+        } else {
+            (&self.live_view, &self.live_hist)
+        }
+    }
+
+    /// Reads the stations (latest values, new history samples).
+    pub fn poll(&mut self) {
+        if let Some(h) = &self.live {
+            self.live_view = h.view();
+            h.sync_history(&mut self.live_hist);
+        }
+        if let Some(h) = &self.replay {
+            self.replay_view = h.view();
+            h.sync_history(&mut self.replay_hist);
+        }
+        self.lab.poll();
+        self.conn.poll();
+    }
+
+    /// One frame.
+    pub fn ui(&mut self, ui: &mut Ui) {
+        if !self.styled {
+            theme::apply(ui.ctx());
+            self.styled = true;
+        }
+        self.poll();
+        self.keyboard(ui);
+        self.top_bar(ui);
+        self.alarm_bar(ui);
+        if self.replay.is_some() {
+            crate::replay::replay_bar(self, ui);
+        }
+        self.status_bar(ui);
+        egui::CentralPanel::default().show(ui, |ui| match self.tab {
+            Tab::Fly => crate::fly::fly(self, ui),
+            Tab::Plots => crate::plots::plots_tab(self, ui),
+            Tab::Replay => crate::replay::replay_tab(self, ui),
+            Tab::Lab => crate::lab::lab_tab(self, ui),
+            Tab::Connection => crate::connection::connection_tab(self, ui),
+        });
+        self.screenshot_step(ui.ctx());
+        ui.ctx()
+            .request_repaint_after(Duration::from_millis(self.repaint_ms));
+    }
+
+    /// Keyboard: W/S surge, A/D yaw, R/F rise/dive (sticks at full deflection, sent every
+    /// frame while held: the runtime centres them 0.3 s after the last report);
+    /// Space held = arm; Esc = disarm; 1–4 = gain step; H / J = depth / heading hold.
+    fn keyboard(&mut self, ui: &mut Ui) {
+        if ui.ctx().egui_wants_keyboard_input() {
+            if self.kb_active {
+                self.live_cmd(RuntimeCommand::Station(StationCommand::Sticks(
+                    PilotInput::default(),
+                )));
+                self.kb_active = false;
+            }
+            return;
+        }
+        let (sticks, space, esc, gain, hold_d, hold_h) = ui.input(|i| {
+            let axis = |pos: Key, neg: Key| {
+                f64::from(u8::from(i.key_down(pos))) - f64::from(u8::from(i.key_down(neg)))
+            };
+            let sticks = PilotInput {
+                surge: axis(Key::W, Key::S),
+                yaw: axis(Key::D, Key::A),
+                vertical: axis(Key::F, Key::R),
+            };
+            let gain = [Key::Num1, Key::Num2, Key::Num3, Key::Num4]
+                .iter()
+                .position(|k| i.key_pressed(*k));
+            (
+                sticks,
+                i.key_down(Key::Space),
+                i.key_pressed(Key::Escape),
+                gain,
+                i.key_pressed(Key::H),
+                i.key_pressed(Key::J),
+            )
+        });
+        let any = sticks != PilotInput::default();
+        if any || self.kb_active {
+            self.live_cmd(RuntimeCommand::Station(StationCommand::Sticks(sticks)));
+        }
+        self.kb_active = any;
+        self.space_held = space;
+        if esc {
+            self.live_cmd(RuntimeCommand::Station(StationCommand::Disarm));
+        }
+        if let Some(g) = gain {
+            self.live_cmd(RuntimeCommand::Gain(GainCommand::Set(g)));
+        }
+        if hold_d {
+            self.live_cmd(RuntimeCommand::ToggleHold(rov_control::Axis::Depth));
+        }
+        if hold_h {
+            self.live_cmd(RuntimeCommand::ToggleHold(rov_control::Axis::Heading));
+        }
+    }
+
+    fn top_bar(&mut self, ui: &mut Ui) {
+        egui::Panel::top("top_bar")
+            .frame(
+                egui::Frame::new()
+                    .fill(Color32::from_rgb(28, 32, 38))
+                    .inner_margin(6.0),
+            )
+            .show(ui, |ui| {
+                ui.horizontal(|ui| {
+                    let v = self.live_view.clone();
+                    // Arming (always the live station, also while replaying).
+                    let (held, disarm) =
+                        crate::instruments::arm_control(ui, v.snapshot.armed, v.pilot.arm_progress);
+                    let held = held || self.space_held;
+                    if held || self.arm_reported {
+                        self.live_cmd(RuntimeCommand::ArmButton(held));
+                    }
+                    self.arm_reported = held;
+                    if disarm {
+                        self.live_cmd(RuntimeCommand::Station(StationCommand::Disarm));
+                    }
+                    let (state, color) = if v.snapshot.armed {
+                        ("ARMED", theme::RED)
+                    } else {
+                        ("SAFE", theme::GREEN)
+                    };
+                    ui.label(RichText::new(state).size(22.0).strong().color(color));
+                    ui.separator();
+                    // Gain steps, always visible.
+                    ui.vertical(|ui| {
+                        ui.label(RichText::new("GAIN").small().color(theme::DIM));
+                        ui.horizontal(|ui| {
+                            ui.spacing_mut().item_spacing.x = 2.0;
+                            for (i, g) in rov_station::runtime::GAIN_STEPS_PCT.iter().enumerate() {
+                                let on = i == v.pilot.gain_index;
+                                let text = RichText::new(format!("{g:.0}"))
+                                    .monospace()
+                                    .color(if on { Color32::BLACK } else { theme::DIM });
+                                let b = egui::Button::new(text)
+                                    .fill(if on {
+                                        theme::THRUST
+                                    } else {
+                                        Color32::from_gray(45)
+                                    })
+                                    .min_size(vec2(30.0, 20.0));
+                                if ui.add(b).clicked() {
+                                    self.live_cmd(RuntimeCommand::Gain(GainCommand::Set(i)));
+                                }
+                            }
+                            ui.label(RichText::new("%").small());
+                        });
+                    });
+                    ui.separator();
+                    crate::panels::link_pill(ui, &v);
+                    ui.separator();
+                    crate::panels::recording_control(self, ui);
+                    ui.separator();
+                    if self.replay.is_some() {
+                        let badge = egui::Button::new(
+                            RichText::new(" REPLAY ")
+                                .size(20.0)
+                                .strong()
+                                .color(Color32::BLACK),
+                        )
+                        .fill(theme::REPLAY);
+                        ui.add(badge);
+                    } else {
+                        let src = match &v.source {
+                            rov_station::runtime::Source::Sim => "SIM".to_string(),
+                            rov_station::runtime::Source::Serial(p) => p.clone(),
+                            rov_station::runtime::Source::Replay(_) => "REPLAY".to_string(),
+                            rov_station::runtime::Source::None => "NO VEHICLE".to_string(),
+                        };
+                        ui.label(RichText::new(src).strong().color(theme::SCALE));
+                    }
+                    ui.with_layout(egui::Layout::right_to_left(egui::Align::Center), |ui| {
+                        ui.label(
+                            RichText::new(format!("t {:.1} s", self.shown().0.snapshot.time_s))
+                                .monospace()
+                                .color(theme::DIM),
+                        );
+                    });
+                });
+                ui.horizontal(|ui| {
+                    for (tab, name) in Tab::ALL {
+                        ui.selectable_value(&mut self.tab, tab, RichText::new(name).size(15.0));
+                    }
+                });
+            });
+    }
+
+    fn alarm_bar(&mut self, ui: &mut Ui) {
+        let alarms = self.live_view.alarms.clone();
+        let failsafe = self.live_view.snapshot.alarm.clone();
+        if alarms.is_empty() && failsafe.is_none() {
+            return;
+        }
+        let unacked = alarms.iter().any(|a| !a.acknowledged);
+        let fill = if unacked {
+            theme::RED
+        } else {
+            Color32::from_rgb(110, 70, 10)
+        };
+        egui::Panel::top("alarm_bar")
+            .frame(egui::Frame::new().fill(fill).inner_margin(6.0))
+            .show(ui, |ui| {
+                ui.horizontal_wrapped(|ui| {
+                    ui.label(
+                        RichText::new("ALARM")
+                            .size(20.0)
+                            .strong()
+                            .color(Color32::WHITE),
+                    );
+                    for a in &alarms {
+                        let state = if a.active { "" } else { " (cleared)" };
+                        let text = format!("{}{state}", a.kind.text());
+                        let color = if a.acknowledged {
+                            theme::AMBER
+                        } else {
+                            Color32::WHITE
+                        };
+                        ui.label(RichText::new(text).size(18.0).strong().color(color));
+                        if !a.acknowledged && ui.button("ACK").clicked() {
+                            self.live_cmd(RuntimeCommand::AckAlarm(Some(a.kind)));
+                        }
+                        ui.separator();
+                    }
+                    if let Some(f) = &failsafe {
+                        ui.label(
+                            RichText::new(format!("FAILSAFE {f}: thrust neutral until re-armed"))
+                                .size(16.0)
+                                .color(Color32::WHITE),
+                        );
+                    }
+                    if alarms.iter().filter(|a| !a.acknowledged).count() > 1
+                        && ui.button("ACK ALL").clicked()
+                    {
+                        self.live_cmd(RuntimeCommand::AckAlarm(None::<AlarmKind>));
+                    }
+                });
+            });
+    }
+
+    fn status_bar(&mut self, ui: &mut Ui) {
+        egui::Panel::bottom("status_bar")
+            .frame(
+                egui::Frame::new()
+                    .fill(Color32::from_rgb(24, 27, 32))
+                    .inner_margin(4.0),
+            )
+            .show(ui, |ui| {
+                ui.horizontal(|ui| {
+                    let v = &self.live_view;
+                    let t = &v.tick;
+                    ui.label(
+                        RichText::new(format!(
+                            "control {:.0} Hz  late p99 {:.1} ms  missed {}  watchdog {}",
+                            if t.period_us > 0 {
+                                1e6 / t.period_us as f64
+                            } else {
+                                0.0
+                            },
+                            t.p99_late_us as f64 * 1e-3,
+                            t.missed,
+                            t.watchdog_trips
+                        ))
+                        .monospace()
+                        .small()
+                        .color(theme::DIM),
+                    );
+                    ui.separator();
+                    let pad = crate::panels::pad_text(&v.pilot.pad);
+                    ui.label(RichText::new(pad).small().color(theme::DIM));
+                    ui.separator();
+                    if let Some(m) = &self.message {
+                        ui.label(RichText::new(m).small().color(theme::AMBER));
+                    } else if let Some(r) = &v.last_refusal {
+                        ui.label(RichText::new(r).small().color(theme::AMBER));
+                    } else if let Some(e) = self.shown().0.events.last() {
+                        ui.label(RichText::new(e).small().color(theme::DIM));
+                    }
+                });
+            });
+    }
+
+    fn screenshot_step(&mut self, ctx: &egui::Context) {
+        let Some(req) = &mut self.screenshot else {
+            return;
+        };
+        let now = std::time::Instant::now();
+        let started = *req.state.started.get_or_insert(now);
+        if req.state.done.load(Ordering::Relaxed) {
+            ctx.send_viewport_cmd(egui::ViewportCommand::Close);
+            return;
+        }
+        if !req.state.requested && now.duration_since(started).as_secs_f64() >= req.after_s {
+            req.state.requested = true;
+            let path = req.path.clone();
+            let done = Arc::clone(&req.state.done);
+            let ok = Arc::clone(&req.state.ok);
+            let c = ctx.clone();
+            ctx.request_screenshot(move |image| {
+                match crate::screenshot::save_png(&image, &path) {
+                    Ok(()) => ok.store(true, Ordering::Relaxed),
+                    Err(e) => eprintln!("screenshot: {e}"),
+                }
+                done.store(true, Ordering::Relaxed);
+                c.request_repaint();
+            });
+        }
+        ctx.request_repaint_after(Duration::from_millis(50));
+    }
+}
+
+impl eframe::App for StationApp {
+    fn ui(&mut self, ui: &mut Ui, _frame: &mut eframe::Frame) {
+        StationApp::ui(self, ui);
+    }
+}

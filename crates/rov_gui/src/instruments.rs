@@ -1,0 +1,634 @@
+//! The HUD instruments, painted every frame from the latest view: depth tape, heading
+//! tape, artificial horizon, side-view pitch glyph, thruster bars, and the hold-to-arm
+//! button.
+//!
+//! Instruments return what the pilot did with them (a dragged setpoint); they never hold
+//! timers: the arm button only reports "held" each frame and the runtime times the hold.
+
+use egui::{Align2, Color32, Rect, Sense, Shape, Stroke, StrokeKind, Ui, Vec2, pos2, vec2};
+
+use crate::theme;
+
+fn frame(ui: &Ui, rect: Rect) {
+    let p = ui.painter();
+    p.rect_filled(rect, 4.0, theme::BG);
+    p.rect_stroke(
+        rect,
+        4.0,
+        Stroke::new(1.0, theme::FRAME),
+        StrokeKind::Inside,
+    );
+}
+
+fn fmt_opt(v: Option<f64>, digits: usize, unit: &str) -> String {
+    v.map_or_else(|| "---".to_string(), |x| format!("{x:.digits$}{unit}"))
+}
+
+/// Depth tape inputs.
+#[derive(Debug, Clone, Copy)]
+pub struct DepthTape {
+    /// Measured depth, m.
+    pub depth_m: Option<f64>,
+    /// Setpoint, m (None when not holding).
+    pub setpoint_m: Option<f64>,
+    /// Vertical thrust command, % (positive down).
+    pub vertical_pct: f64,
+    /// The hold is overridden by the stick.
+    pub overridden: bool,
+    /// Half range shown, m.
+    pub half_range_m: f64,
+}
+
+/// What the pilot did on the depth tape.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum TapeAction {
+    /// Dragging: the setpoint under the pointer (preview).
+    Dragging(f64),
+    /// Released: set this setpoint.
+    Set(f64),
+}
+
+impl DepthTape {
+    /// Draws the tape in `size`; drag vertically on it to choose a setpoint.
+    pub fn show(&self, ui: &mut Ui, size: Vec2, drag: Option<f64>) -> Option<TapeAction> {
+        let (resp, painter) = ui.allocate_painter(size, Sense::drag());
+        resp.widget_info(|| egui::WidgetInfo::labeled(egui::Role::Slider, true, "depth tape"));
+        let rect = resp.rect;
+        frame(ui, rect);
+        let bar_w = 16.0;
+        let tape = Rect::from_min_max(
+            rect.min + vec2(2.0, 24.0),
+            pos2(rect.max.x - bar_w - 8.0, rect.max.y - 4.0),
+        );
+        let bar = Rect::from_min_max(
+            pos2(rect.max.x - bar_w - 4.0, tape.min.y),
+            pos2(rect.max.x - 4.0, tape.max.y),
+        );
+        painter.text(
+            pos2(rect.center().x, rect.min.y + 11.0),
+            Align2::CENTER_CENTER,
+            "DEPTH m",
+            theme::small(),
+            theme::SCALE,
+        );
+        let centre_m = self.depth_m.unwrap_or(0.0);
+        let half = self.half_range_m.max(0.5);
+        let px_per_m = tape.height() / (2.0 * half as f32);
+        let y_of = |d: f64| tape.center().y + ((d - centre_m) as f32) * px_per_m;
+        let d_of = |y: f32| centre_m + f64::from((y - tape.center().y) / px_per_m);
+        let clip = painter.with_clip_rect(tape);
+        // Ticks every 0.5 m, labels every metre.
+        let first = ((centre_m - half) * 2.0).floor() as i64;
+        let last = ((centre_m + half) * 2.0).ceil() as i64;
+        for k in first..=last {
+            let d = k as f64 * 0.5;
+            let y = y_of(d);
+            let major = k % 2 == 0;
+            let len = if major { 14.0 } else { 8.0 };
+            clip.line_segment(
+                [pos2(tape.min.x, y), pos2(tape.min.x + len, y)],
+                Stroke::new(1.0, theme::SCALE),
+            );
+            if major {
+                clip.text(
+                    pos2(tape.min.x + 18.0, y),
+                    Align2::LEFT_CENTER,
+                    format!("{d:.0}"),
+                    theme::small(),
+                    theme::SCALE,
+                );
+            }
+        }
+        // Surface line.
+        let ys = y_of(0.0);
+        if tape.y_range().contains(ys) {
+            clip.line_segment(
+                [pos2(tape.min.x, ys), pos2(tape.max.x, ys)],
+                Stroke::new(2.0, theme::ESTIMATE),
+            );
+        }
+        // Current depth box.
+        let c = tape.center();
+        let boxr = Rect::from_center_size(pos2(c.x + 4.0, c.y), vec2(tape.width() - 8.0, 26.0));
+        painter.rect_filled(boxr, 3.0, Color32::BLACK);
+        painter.rect_stroke(
+            boxr,
+            3.0,
+            Stroke::new(1.5, theme::VALUE),
+            StrokeKind::Inside,
+        );
+        painter.text(
+            boxr.center(),
+            Align2::CENTER_CENTER,
+            fmt_opt(self.depth_m, 2, ""),
+            theme::big(),
+            theme::VALUE,
+        );
+        // Setpoint bug (clamped to the tape edge with an arrow when off scale).
+        let sp = drag.or(self.setpoint_m);
+        if let Some(sp) = sp {
+            let y = y_of(sp).clamp(tape.min.y + 6.0, tape.max.y - 6.0);
+            let x = tape.max.x - 2.0;
+            let color = if self.overridden {
+                theme::AMBER
+            } else {
+                theme::SETPOINT
+            };
+            painter.add(Shape::convex_polygon(
+                vec![pos2(x, y), pos2(x - 12.0, y - 7.0), pos2(x - 12.0, y + 7.0)],
+                color,
+                Stroke::NONE,
+            ));
+            painter.line_segment(
+                [pos2(tape.min.x, y), pos2(x, y)],
+                Stroke::new(1.0, color.gamma_multiply(0.6)),
+            );
+            painter.text(
+                pos2(x - 14.0, y - 9.0),
+                Align2::RIGHT_BOTTOM,
+                format!("{sp:.1}"),
+                theme::small(),
+                color,
+            );
+        }
+        // Vertical thrust bar: from the centre, down for positive (dive).
+        painter.rect_filled(bar, 2.0, Color32::from_gray(35));
+        let v = (self.vertical_pct.clamp(-100.0, 100.0) / 100.0) as f32;
+        let yc = bar.center().y;
+        let y1 = yc + v * bar.height() / 2.0;
+        let fill = Rect::from_min_max(pos2(bar.min.x, yc.min(y1)), pos2(bar.max.x, yc.max(y1)));
+        painter.rect_filled(fill, 1.0, theme::THRUST);
+        painter.line_segment(
+            [pos2(bar.min.x - 2.0, yc), pos2(bar.max.x + 2.0, yc)],
+            Stroke::new(1.0, theme::SCALE),
+        );
+
+        let pointer = resp
+            .interact_pointer_pos()
+            .filter(|p| tape.expand(4.0).contains(*p));
+        if resp.drag_stopped() {
+            return drag.map(TapeAction::Set);
+        }
+        if resp.dragged() {
+            return pointer.map(|p| TapeAction::Dragging(d_of(p.y).max(0.0)));
+        }
+        None
+    }
+}
+
+/// Heading tape inputs.
+#[derive(Debug, Clone, Copy)]
+pub struct HeadingTape {
+    /// Heading, degrees.
+    pub heading_deg: Option<f64>,
+    /// Setpoint, degrees.
+    pub setpoint_deg: Option<f64>,
+    /// The hold is overridden.
+    pub overridden: bool,
+    /// Tether turns.
+    pub turns: f64,
+}
+
+fn wrap180(x: f64) -> f64 {
+    (x + 540.0).rem_euclid(360.0) - 180.0
+}
+
+impl HeadingTape {
+    /// Draws the tape; drag horizontally to choose a heading setpoint.
+    pub fn show(&self, ui: &mut Ui, size: Vec2, drag: Option<f64>) -> Option<TapeAction> {
+        let (resp, painter) = ui.allocate_painter(size, Sense::drag());
+        resp.widget_info(|| egui::WidgetInfo::labeled(egui::Role::Slider, true, "heading tape"));
+        let rect = resp.rect;
+        frame(ui, rect);
+        let turns_w = 110.0;
+        let tape = Rect::from_min_max(
+            rect.min + vec2(4.0, 4.0),
+            pos2(rect.max.x - turns_w, rect.max.y - 4.0),
+        );
+        let h = self.heading_deg.unwrap_or(0.0);
+        let half = 60.0;
+        let px_per_deg = tape.width() / (2.0 * half as f32);
+        let x_of = |d: f64| tape.center().x + (wrap180(d - h) as f32) * px_per_deg;
+        let d_of = |x: f32| (h + f64::from((x - tape.center().x) / px_per_deg)).rem_euclid(360.0);
+        let clip = painter.with_clip_rect(tape);
+        let first = ((h - half) / 5.0).floor() as i64;
+        let last = ((h + half) / 5.0).ceil() as i64;
+        for k in first..=last {
+            let d = (k as f64 * 5.0).rem_euclid(360.0);
+            let x = x_of(d);
+            let major = k.rem_euclid(2) == 0;
+            let len = if major { 12.0 } else { 6.0 };
+            clip.line_segment(
+                [pos2(x, tape.max.y), pos2(x, tape.max.y - len)],
+                Stroke::new(1.0, theme::SCALE),
+            );
+            if k.rem_euclid(6) == 0 {
+                let label = match d.round() as i64 {
+                    0 => "N".to_string(),
+                    90 => "E".to_string(),
+                    180 => "S".to_string(),
+                    270 => "W".to_string(),
+                    x => format!("{x:03}"),
+                };
+                // Skip labels that would be cut at the ends.
+                if x > tape.min.x + 18.0 && x < tape.max.x - 18.0 {
+                    clip.text(
+                        pos2(x, tape.max.y - 16.0),
+                        Align2::CENTER_BOTTOM,
+                        label,
+                        theme::mid(),
+                        theme::SCALE,
+                    );
+                }
+            }
+        }
+        if let Some(sp) = drag.or(self.setpoint_deg) {
+            let x = x_of(sp).clamp(tape.min.x + 6.0, tape.max.x - 6.0);
+            let color = if self.overridden {
+                theme::AMBER
+            } else {
+                theme::SETPOINT
+            };
+            painter.add(Shape::convex_polygon(
+                vec![
+                    pos2(x, tape.max.y - 2.0),
+                    pos2(x - 8.0, tape.max.y - 14.0),
+                    pos2(x + 8.0, tape.max.y - 14.0),
+                ],
+                color,
+                Stroke::NONE,
+            ));
+            // The setpoint's number sits just above its bug, on a dark plate over the scale.
+            let spi = (sp.round() as i64).rem_euclid(360);
+            let plate = Rect::from_center_size(pos2(x, tape.max.y - 23.0), vec2(30.0, 15.0));
+            painter.rect_filled(plate, 2.0, Color32::from_black_alpha(220));
+            painter.text(
+                plate.center(),
+                Align2::CENTER_CENTER,
+                format!("{spi:03}"),
+                theme::small(),
+                color,
+            );
+        }
+        // Lubber line and value.
+        let c = tape.center();
+        painter.line_segment(
+            [pos2(c.x, tape.min.y + 16.0), pos2(c.x, tape.max.y)],
+            Stroke::new(2.0, theme::VALUE),
+        );
+        let boxr = Rect::from_center_size(pos2(c.x, tape.min.y + 10.0), vec2(62.0, 22.0));
+        painter.rect_filled(boxr, 3.0, Color32::BLACK);
+        painter.rect_stroke(
+            boxr,
+            3.0,
+            Stroke::new(1.5, theme::VALUE),
+            StrokeKind::Inside,
+        );
+        let hv = self.heading_deg.map_or("---".into(), |x| {
+            format!("{:03}°", (x.round() as i64).rem_euclid(360))
+        });
+        painter.text(
+            boxr.center(),
+            Align2::CENTER_CENTER,
+            hv,
+            theme::mid(),
+            theme::VALUE,
+        );
+        // Tether turns.
+        let tr = Rect::from_min_max(
+            pos2(rect.max.x - turns_w + 6.0, rect.min.y + 4.0),
+            rect.max - vec2(4.0, 4.0),
+        );
+        // No "-0.0".
+        let t = if self.turns.abs() < 0.05 {
+            0.0
+        } else {
+            self.turns
+        };
+        let color = if t.abs() >= 4.0 {
+            theme::RED
+        } else if t.abs() >= 2.0 {
+            theme::AMBER
+        } else {
+            theme::VALUE
+        };
+        painter.text(
+            pos2(tr.center().x, tr.min.y + 2.0),
+            Align2::CENTER_TOP,
+            "TETHER TURNS",
+            theme::small(),
+            theme::SCALE,
+        );
+        painter.text(
+            pos2(tr.center().x, tr.max.y - 2.0),
+            Align2::CENTER_BOTTOM,
+            format!("{t:+.1}"),
+            theme::big(),
+            color,
+        );
+
+        let pointer = resp.interact_pointer_pos();
+        if resp.drag_stopped() {
+            return drag.map(TapeAction::Set);
+        }
+        if resp.dragged() {
+            return pointer.map(|p| TapeAction::Dragging(d_of(p.x).round()));
+        }
+        None
+    }
+}
+
+/// Draws the artificial horizon (pitch ladder, roll scale) in a square of `side`.
+pub fn horizon(ui: &mut Ui, side: f32, pitch_deg: Option<f64>, roll_deg: Option<f64>) {
+    let (rect, _) = ui.allocate_exact_size(Vec2::splat(side), Sense::hover());
+    frame(ui, rect);
+    let inner = rect.shrink(6.0);
+    let painter = ui.painter().with_clip_rect(inner);
+    let c = inner.center();
+    let pitch = pitch_deg.unwrap_or(0.0) as f32;
+    let roll = roll_deg.unwrap_or(0.0).to_radians() as f32;
+    let px_per_deg = inner.height() / 60.0;
+    // Horizon line through c + offset, rotated by −roll (starboard down rolls the
+    // horizon anticlockwise as seen by the pilot).
+    let rot = |v: Vec2| -> Vec2 {
+        let (s, co) = (-roll).sin_cos();
+        vec2(v.x * co - v.y * s, v.x * s + v.y * co)
+    };
+    let off = pitch * px_per_deg;
+    let big = inner.width() * 2.0;
+    let p = |x: f32, y: f32| c + rot(vec2(x, y + off));
+    // Sky and ground as two big rotated quads.
+    painter.add(Shape::convex_polygon(
+        vec![
+            p(-big, -2.0 * big),
+            p(big, -2.0 * big),
+            p(big, 0.0),
+            p(-big, 0.0),
+        ],
+        theme::SKY,
+        Stroke::NONE,
+    ));
+    painter.add(Shape::convex_polygon(
+        vec![
+            p(-big, 0.0),
+            p(big, 0.0),
+            p(big, 2.0 * big),
+            p(-big, 2.0 * big),
+        ],
+        theme::GROUND,
+        Stroke::NONE,
+    ));
+    painter.line_segment(
+        [p(-big, 0.0), p(big, 0.0)],
+        Stroke::new(2.0, Color32::WHITE),
+    );
+    for k in [-30i32, -20, -10, 10, 20, 30] {
+        let y = -(k as f32) * px_per_deg;
+        let w = if k % 20 == 0 { 50.0 } else { 30.0 };
+        painter.line_segment([p(-w, y), p(w, y)], Stroke::new(1.0, Color32::WHITE));
+        painter.text(
+            p(w + 12.0, y),
+            Align2::CENTER_CENTER,
+            format!("{}", k.abs()),
+            theme::small(),
+            Color32::WHITE,
+        );
+    }
+    // Fixed vehicle symbol.
+    let sym = Stroke::new(3.0, Color32::YELLOW);
+    painter.line_segment([c - vec2(60.0, 0.0), c - vec2(20.0, 0.0)], sym);
+    painter.line_segment([c + vec2(20.0, 0.0), c + vec2(60.0, 0.0)], sym);
+    painter.circle_filled(c, 4.0, Color32::YELLOW);
+    // Roll scale.
+    let r = inner.width() * 0.45;
+    for a in [
+        -60.0f32, -45.0, -30.0, -20.0, -10.0, 0.0, 10.0, 20.0, 30.0, 45.0, 60.0,
+    ] {
+        let t = (a - 90.0).to_radians();
+        let dir = vec2(t.cos(), t.sin());
+        let len = if a == 0.0 || a.abs() == 30.0 || a.abs() == 60.0 {
+            12.0
+        } else {
+            7.0
+        };
+        painter.line_segment(
+            [c + dir * r, c + dir * (r - len)],
+            Stroke::new(1.5, Color32::WHITE),
+        );
+    }
+    let t = -roll - std::f32::consts::FRAC_PI_2;
+    let dir = vec2(t.cos(), t.sin());
+    let tip = c + dir * (r - 14.0);
+    let n = vec2(-dir.y, dir.x);
+    painter.add(Shape::convex_polygon(
+        vec![tip, tip - dir * 12.0 + n * 7.0, tip - dir * 12.0 - n * 7.0],
+        Color32::YELLOW,
+        Stroke::NONE,
+    ));
+    let text = format!(
+        "P {}  R {}",
+        fmt_opt(pitch_deg, 1, "°"),
+        fmt_opt(roll_deg, 1, "°")
+    );
+    let tb = Rect::from_center_size(pos2(c.x, inner.max.y - 14.0), vec2(150.0, 22.0));
+    painter.rect_filled(tb, 3.0, Color32::from_black_alpha(170));
+    painter.text(
+        tb.center(),
+        Align2::CENTER_CENTER,
+        text,
+        theme::mid(),
+        Color32::WHITE,
+    );
+}
+
+/// Draws the side view of the vehicle pitched by `pitch_deg` (nose to the right).
+pub fn pitch_glyph(ui: &mut Ui, size: Vec2, pitch_deg: Option<f64>) {
+    let (rect, _) = ui.allocate_exact_size(size, Sense::hover());
+    frame(ui, rect);
+    let painter = ui.painter().with_clip_rect(rect.shrink(2.0));
+    let c = rect.center() + vec2(0.0, 6.0);
+    painter.text(
+        pos2(rect.center().x, rect.min.y + 4.0),
+        Align2::CENTER_TOP,
+        "PITCH (side)",
+        theme::small(),
+        theme::SCALE,
+    );
+    painter.line_segment(
+        [pos2(rect.min.x + 6.0, c.y), pos2(rect.max.x - 6.0, c.y)],
+        Stroke::new(1.0, theme::FRAME),
+    );
+    let a = -(pitch_deg.unwrap_or(0.0) as f32).to_radians();
+    let (s, co) = a.sin_cos();
+    let rot = |v: Vec2| c + vec2(v.x * co - v.y * s, v.x * s + v.y * co);
+    let w = (rect.width() * 0.32).min(60.0);
+    let h = w * 0.45;
+    // Body with a sloped nose (the Pro 4's camera dome at the front).
+    let body = vec![
+        rot(vec2(-w, -h / 2.0)),
+        rot(vec2(w * 0.7, -h / 2.0)),
+        rot(vec2(w, 0.0)),
+        rot(vec2(w * 0.7, h / 2.0)),
+        rot(vec2(-w, h / 2.0)),
+    ];
+    painter.add(Shape::convex_polygon(
+        body,
+        Color32::from_rgb(230, 200, 40),
+        Stroke::new(1.0, Color32::BLACK),
+    ));
+    painter.circle_filled(
+        rot(vec2(w * 0.78, 0.0)),
+        h * 0.22,
+        Color32::from_rgb(30, 30, 30),
+    );
+    painter.text(
+        pos2(rect.center().x, rect.max.y - 4.0),
+        Align2::CENTER_BOTTOM,
+        fmt_opt(pitch_deg, 1, "°"),
+        theme::mid(),
+        theme::VALUE,
+    );
+}
+
+/// Draws thruster command bars (port, starboard, vertical), each −100..100 %.
+pub fn thruster_bars(ui: &mut Ui, size: Vec2, port: f64, starboard: f64, vertical: f64) {
+    let (rect, _) = ui.allocate_exact_size(size, Sense::hover());
+    frame(ui, rect);
+    let painter = ui.painter();
+    painter.text(
+        pos2(rect.center().x, rect.min.y + 4.0),
+        Align2::CENTER_TOP,
+        "THRUST %",
+        theme::small(),
+        theme::SCALE,
+    );
+    let names = ["PORT", "STBD", "VERT"];
+    let vals = [port, starboard, vertical];
+    let n = names.len() as f32;
+    let w = (rect.width() - 16.0) / n;
+    let top = rect.min.y + 22.0;
+    let bottom = rect.max.y - 36.0;
+    for (i, (name, v)) in names.iter().zip(vals).enumerate() {
+        let x0 = rect.min.x + 8.0 + w * i as f32;
+        let bar = Rect::from_min_max(pos2(x0 + w * 0.3, top), pos2(x0 + w * 0.7, bottom));
+        painter.rect_filled(bar, 2.0, Color32::from_gray(35));
+        let yc = bar.center().y;
+        let f = (v.clamp(-100.0, 100.0) / 100.0) as f32;
+        // Forward (or down for the vertical) up the bar.
+        let y1 = yc - f * bar.height() / 2.0;
+        let fill = Rect::from_min_max(pos2(bar.min.x, yc.min(y1)), pos2(bar.max.x, yc.max(y1)));
+        let color = if v.abs() >= 99.5 {
+            theme::RED
+        } else {
+            theme::THRUST
+        };
+        painter.rect_filled(fill, 1.0, color);
+        painter.line_segment(
+            [pos2(bar.min.x - 3.0, yc), pos2(bar.max.x + 3.0, yc)],
+            Stroke::new(1.0, theme::SCALE),
+        );
+        painter.text(
+            pos2(bar.center().x, bottom + 3.0),
+            Align2::CENTER_TOP,
+            *name,
+            theme::small(),
+            theme::SCALE,
+        );
+        painter.text(
+            pos2(bar.center().x, rect.max.y - 3.0),
+            Align2::CENTER_BOTTOM,
+            format!("{v:+.0}"),
+            theme::mid(),
+            theme::VALUE,
+        );
+    }
+}
+
+/// The hold-to-arm / disarm control. Returns (arm button held this frame, disarm
+/// clicked). The arm button shows the runtime's hold progress as a filling bar.
+pub fn arm_control(ui: &mut Ui, armed: bool, progress: f64) -> (bool, bool) {
+    if armed {
+        let b = egui::Button::new(
+            egui::RichText::new("DISARM")
+                .size(20.0)
+                .strong()
+                .color(Color32::WHITE),
+        )
+        .fill(theme::RED)
+        .min_size(vec2(150.0, 38.0));
+        let r = ui.add(b);
+        return (false, r.clicked());
+    }
+    let size = vec2(150.0, 38.0);
+    let (rect, resp) = ui.allocate_exact_size(size, Sense::click_and_drag());
+    let held = resp.is_pointer_button_down_on();
+    let p = ui.painter();
+    p.rect_filled(rect, 4.0, Color32::from_rgb(50, 56, 64));
+    let f = progress.clamp(0.0, 1.0) as f32;
+    if f > 0.0 {
+        let fill = Rect::from_min_max(rect.min, pos2(rect.min.x + rect.width() * f, rect.max.y));
+        p.rect_filled(fill, 4.0, theme::AMBER);
+    }
+    p.rect_stroke(
+        rect,
+        4.0,
+        Stroke::new(1.5, theme::AMBER),
+        StrokeKind::Inside,
+    );
+    p.text(
+        rect.center(),
+        Align2::CENTER_CENTER,
+        "HOLD TO ARM",
+        egui::FontId::proportional(17.0),
+        Color32::WHITE,
+    );
+    resp.widget_info(|| egui::WidgetInfo::labeled(egui::Role::Button, true, "HOLD TO ARM"));
+    (held, false)
+}
+
+/// A horizontal bar for a stick value (−1..1) with a label.
+pub fn stick_bar(ui: &mut Ui, label: &str, raw: f64, shaped: f64) {
+    ui.horizontal(|ui| {
+        ui.add_sized(
+            vec2(56.0, 16.0),
+            egui::Label::new(egui::RichText::new(label).small()),
+        );
+        let (rect, _) = ui.allocate_exact_size(vec2(150.0, 14.0), Sense::hover());
+        let p = ui.painter();
+        p.rect_filled(rect, 2.0, Color32::from_gray(35));
+        let xc = rect.center().x;
+        let draw = |v: f64, color: Color32, h: f32| {
+            let x1 = xc + (v.clamp(-1.0, 1.0) as f32) * rect.width() / 2.0;
+            let r = Rect::from_min_max(
+                pos2(xc.min(x1), rect.center().y - h / 2.0),
+                pos2(xc.max(x1), rect.center().y + h / 2.0),
+            );
+            p.rect_filled(r, 1.0, color);
+        };
+        draw(raw, theme::DIM, 12.0);
+        draw(shaped, theme::THRUST, 6.0);
+        p.line_segment(
+            [pos2(xc, rect.min.y), pos2(xc, rect.max.y)],
+            Stroke::new(1.0, theme::SCALE),
+        );
+        ui.label(
+            egui::RichText::new(format!("{raw:+.2} -> {shaped:+.2}"))
+                .monospace()
+                .small(),
+        );
+    });
+}
+
+/// A coloured status dot followed by text.
+pub fn dot_label(ui: &mut Ui, color: Color32, text: impl Into<egui::WidgetText>) {
+    ui.horizontal(|ui| {
+        let (rect, _) = ui.allocate_exact_size(vec2(12.0, 12.0), Sense::hover());
+        ui.painter().circle_filled(rect.center(), 5.5, color);
+        ui.label(text);
+    });
+}
+
+/// Draws a simple framed heading for an instrument group.
+pub fn group_title(ui: &mut Ui, text: &str) {
+    ui.label(egui::RichText::new(text).strong().color(theme::SCALE));
+}

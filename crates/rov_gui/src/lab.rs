@@ -1,0 +1,713 @@
+//! The Model lab tab (rov_lab): load a session (MCAP) or a measurement CSV, pick a model,
+//! compare it with the measurements (per-channel fit %), run the diagnosis, add a found
+//! effect, and watch the error fall.
+//!
+//! Every lab computation (loading, comparison, diagnosis, refits) runs on a worker
+//! thread; the GUI polls for the result and stays responsive.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+use std::sync::Arc;
+use std::sync::mpsc::{Receiver, channel};
+
+use egui::{Color32, RichText, Ui, vec2};
+use egui_plot::{Corner, Legend, Line, Plot, PlotPoints, Points};
+use rov_lab::diagnose::{DiagnoseOptions, Diagnosis, Status, diagnose};
+use rov_lab::evaluate::evaluate;
+use rov_lab::lab::fit_with_effects;
+use rov_lab::lm::LmOptions;
+use rov_lab::{BaseKind, EffectId, LabModel, Run};
+use rov_types::measurement::MeasurementSeries;
+
+use crate::app::StationApp;
+use crate::theme;
+
+/// One compared channel.
+#[derive(Debug, Clone)]
+pub struct ComparedChannel {
+    /// Channel name ("depth", "heading", ...).
+    pub name: String,
+    /// Measured samples.
+    pub measured: Vec<f64>,
+    /// The model's free-run prediction.
+    pub predicted: Vec<f64>,
+    /// Fit %, if the channel is excited enough.
+    pub fit_pct: Option<f64>,
+    /// RMSE.
+    pub rmse: f64,
+}
+
+/// A model-versus-measured comparison.
+#[derive(Debug, Clone, Default)]
+pub struct Comparison {
+    /// Model label.
+    pub model: String,
+    /// Time, s.
+    pub t: Vec<f64>,
+    /// Channels.
+    pub channels: Vec<ComparedChannel>,
+}
+
+/// Loaded data: the full run, and a training / held-out split (first two thirds / last
+/// third) for the diagnosis.
+#[derive(Debug, Clone)]
+pub struct LabData {
+    /// Label.
+    pub name: String,
+    /// Everything.
+    pub full: Arc<Run>,
+    /// Training part.
+    pub train: Arc<Run>,
+    /// Held-out part.
+    pub val: Arc<Run>,
+    /// Warnings while loading.
+    pub warnings: Vec<String>,
+}
+
+/// Results from the worker.
+#[derive(Debug)]
+pub enum LabResult {
+    /// Data loaded.
+    Loaded(LabData),
+    /// Comparison done.
+    Compared(Comparison),
+    /// Diagnosis done.
+    Diagnosed(Box<Diagnosis>, Comparison),
+    /// An effect added and refitted.
+    Added(Box<LabModel>, Comparison, (String, BTreeMap<String, f64>)),
+    /// Failure.
+    Failed(String),
+}
+
+/// State of the lab tab.
+#[derive(Debug)]
+pub struct LabState {
+    /// Source path (CSV or MCAP).
+    pub path: String,
+    /// Base model.
+    pub kind: BaseKind,
+    /// The current model (the calibrated base and added effects).
+    pub model: Option<LabModel>,
+    /// The data.
+    pub data: Option<LabData>,
+    /// The last comparison.
+    pub comparison: Option<Comparison>,
+    /// The last diagnosis.
+    pub diagnosis: Option<Box<Diagnosis>>,
+    /// Error fall: held-out RMSE per channel after each step.
+    pub fall: Vec<(String, BTreeMap<String, f64>)>,
+    /// Effects added by the pilot.
+    pub added: Vec<EffectId>,
+    /// Work in progress (label, result channel).
+    pub busy: Option<(String, Receiver<LabResult>)>,
+    /// Last error.
+    pub error: Option<String>,
+    /// Worker threads for the diagnosis.
+    pub threads: usize,
+}
+
+impl Default for LabState {
+    fn default() -> Self {
+        Self {
+            path: String::new(),
+            kind: BaseKind::Model3,
+            model: None,
+            data: None,
+            comparison: None,
+            diagnosis: None,
+            fall: Vec::new(),
+            added: Vec::new(),
+            busy: None,
+            error: None,
+            threads: 1,
+        }
+    }
+}
+
+fn split_series(s: &MeasurementSeries) -> (MeasurementSeries, MeasurementSeries) {
+    let n = s.rows.len();
+    let cut = n * 2 / 3;
+    let mut a = s.clone();
+    let mut b = s.clone();
+    a.rows.truncate(cut);
+    b.rows.drain(..cut.min(b.rows.len()));
+    (a, b)
+}
+
+/// Loads a CSV or an MCAP session into lab runs.
+///
+/// # Errors
+/// A message when the file cannot be read or has too little data.
+pub fn load(path: &Path) -> Result<LabData, String> {
+    let name = path
+        .file_name()
+        .map_or_else(|| "data".to_string(), |n| n.to_string_lossy().into_owned());
+    let is_mcap = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("mcap"));
+    let (series, warnings) = if is_mcap {
+        let session = rov_session::open(path).map_err(|e| e.to_string())?;
+        let (s, _, w) = rov_session::measurements(&session).map_err(|e| e.to_string())?;
+        (s, w)
+    } else {
+        let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+        let s = MeasurementSeries::parse_csv(&text, &name).map_err(|e| e.to_string())?;
+        let w = s.warnings.clone();
+        (s, w)
+    };
+    let (a, b) = split_series(&series);
+    let full = Run::from_series(&series, &name).map_err(|e| e.to_string())?;
+    let train = Run::from_series(&a, &format!("{name} (training)")).map_err(|e| e.to_string())?;
+    let val = Run::from_series(&b, &format!("{name} (held out)")).map_err(|e| e.to_string())?;
+    Ok(LabData {
+        name,
+        full: Arc::new(full),
+        train: Arc::new(train),
+        val: Arc::new(val),
+        warnings,
+    })
+}
+
+/// Compares a model with a run (free run).
+///
+/// # Errors
+/// The lab's error text.
+pub fn compare(model: &LabModel, run: &Run) -> Result<Comparison, String> {
+    let eval = evaluate(model, std::slice::from_ref(run)).map_err(|e| e.to_string())?;
+    let pred = eval.free_run.first();
+    let mut channels = Vec::new();
+    for (key, ce) in &eval.channels {
+        let measured = run.y.get(key.0).and_then(Clone::clone).unwrap_or_default();
+        let predicted = pred
+            .and_then(|p| p.y.get(key.0))
+            .and_then(Clone::clone)
+            .unwrap_or_default();
+        channels.push(ComparedChannel {
+            name: key.name().to_string(),
+            measured,
+            predicted,
+            fit_pct: ce.free_run.fit_pct,
+            rmse: ce.free_run.rmse,
+        });
+    }
+    Ok(Comparison {
+        model: model_label(model),
+        t: run.t.clone(),
+        channels,
+    })
+}
+
+fn model_label(m: &LabModel) -> String {
+    let mut s = m.kind().name().to_string();
+    for e in m.active_effects() {
+        s.push('+');
+        s.push_str(e.key());
+    }
+    s
+}
+
+fn held_out_rmse(model: &LabModel, val: &Run) -> Result<BTreeMap<String, f64>, String> {
+    let eval = evaluate(model, std::slice::from_ref(val)).map_err(|e| e.to_string())?;
+    Ok(eval
+        .channels
+        .iter()
+        .map(|(k, c)| (k.name().to_string(), c.free_run.rmse))
+        .collect())
+}
+
+impl LabState {
+    pub(crate) fn poll(&mut self) {
+        let Some((_, rx)) = &self.busy else {
+            return;
+        };
+        let Ok(r) = rx.try_recv() else {
+            return;
+        };
+        self.busy = None;
+        match r {
+            LabResult::Loaded(d) => {
+                self.data = Some(d);
+                self.comparison = None;
+                self.diagnosis = None;
+                self.fall.clear();
+                self.added.clear();
+                self.model = None;
+                self.error = None;
+            }
+            LabResult::Compared(c) => self.comparison = Some(c),
+            LabResult::Diagnosed(d, c) => {
+                // The chart starts at the calibrated base; each "Add effect" adds a step
+                // (the diagnosis's own greedy additions are in its findings).
+                self.fall = d
+                    .error_fall
+                    .first()
+                    .map(|(label, maps)| (label.clone(), maps.free_run.clone()))
+                    .into_iter()
+                    .collect();
+                self.model = Some(d.calibrated.clone());
+                self.added.clear();
+                self.diagnosis = Some(d);
+                self.comparison = Some(c);
+            }
+            LabResult::Added(m, c, step) => {
+                self.model = Some(*m);
+                self.comparison = Some(c);
+                self.fall.push(step);
+            }
+            LabResult::Failed(e) => self.error = Some(e),
+        }
+    }
+
+    /// Whether the worker is busy.
+    #[must_use]
+    pub fn is_busy(&self) -> bool {
+        self.busy.is_some()
+    }
+
+    fn spawn(&mut self, label: &str, job: impl FnOnce() -> LabResult + Send + 'static) {
+        let (tx, rx) = channel();
+        let spawned = std::thread::Builder::new()
+            .name("lab-worker".into())
+            .spawn(move || {
+                let _ = tx.send(job());
+            });
+        match spawned {
+            Ok(_) => {
+                self.busy = Some((label.to_string(), rx));
+                self.error = None;
+            }
+            Err(e) => self.error = Some(format!("cannot start the lab worker: {e}")),
+        }
+    }
+
+    /// Loads a file in the background.
+    pub fn start_load(&mut self, path: &Path) {
+        let p = path.to_path_buf();
+        self.spawn("loading", move || match load(&p) {
+            Ok(d) => LabResult::Loaded(d),
+            Err(e) => LabResult::Failed(e),
+        });
+    }
+
+    /// Compares the chosen base model with the data in the background.
+    pub fn start_compare(&mut self) {
+        let Some(d) = &self.data else {
+            self.error = Some("load data first".into());
+            return;
+        };
+        let run = Arc::clone(&d.full);
+        let kind = self.kind;
+        let current = self.model.clone().filter(|m| m.kind() == kind);
+        self.spawn("comparing", move || {
+            let m = match current.map_or_else(|| LabModel::default_base(kind), Ok) {
+                Ok(m) => m,
+                Err(e) => return LabResult::Failed(e.to_string()),
+            };
+            match compare(&m, &run) {
+                Ok(c) => LabResult::Compared(c),
+                Err(e) => LabResult::Failed(e),
+            }
+        });
+    }
+
+    /// Runs the diagnosis in the background.
+    pub fn start_diagnose(&mut self) {
+        let Some(d) = &self.data else {
+            self.error = Some("load data first".into());
+            return;
+        };
+        let (train, val, full) = (
+            Arc::clone(&d.train),
+            Arc::clone(&d.val),
+            Arc::clone(&d.full),
+        );
+        let kind = self.kind;
+        let threads = self.threads.max(1);
+        self.spawn("diagnosing", move || {
+            let base = match LabModel::default_base(kind) {
+                Ok(m) => m,
+                Err(e) => return LabResult::Failed(e.to_string()),
+            };
+            let opts = DiagnoseOptions {
+                threads,
+                ..DiagnoseOptions::default()
+            };
+            let diag = match diagnose(
+                &base,
+                kind.name(),
+                std::slice::from_ref(&*train),
+                std::slice::from_ref(&*val),
+                &opts,
+            ) {
+                Ok(d) => d,
+                Err(e) => return LabResult::Failed(e.to_string()),
+            };
+            match compare(&diag.calibrated, &full) {
+                Ok(c) => LabResult::Diagnosed(Box::new(diag), c),
+                Err(e) => LabResult::Failed(e),
+            }
+        });
+    }
+
+    /// Adds an effect to the current model, refits on the training data and compares, in
+    /// the background.
+    pub fn start_add_effect(&mut self, e: EffectId) {
+        let (Some(d), Some(m)) = (&self.data, &self.model) else {
+            self.error = Some("run the diagnosis first".into());
+            return;
+        };
+        self.added.push(e);
+        let (train, val, full) = (
+            Arc::clone(&d.train),
+            Arc::clone(&d.val),
+            Arc::clone(&d.full),
+        );
+        let model = m.clone();
+        let threads = self.threads.max(1);
+        self.spawn("adding effect", move || {
+            // The same refit as `topside lab add`: the effect's parameters start at the
+            // better of off and their probe value, then are fitted jointly with the base.
+            let opts = LmOptions {
+                max_iter: 8,
+                threads,
+                ..LmOptions::default()
+            };
+            let fitted = match fit_with_effects(&model, std::slice::from_ref(&*train), &[e], &opts)
+            {
+                Ok((m, _)) => m,
+                Err(err) => return LabResult::Failed(err.to_string()),
+            };
+            let step = match held_out_rmse(&fitted, &val) {
+                Ok(r) => (format!("+{}", e.key()), r),
+                Err(err) => return LabResult::Failed(err),
+            };
+            match compare(&fitted, &full) {
+                Ok(c) => LabResult::Added(Box::new(fitted), c, step),
+                Err(err) => LabResult::Failed(err),
+            }
+        });
+    }
+}
+
+fn status_badge(s: Status) -> (&'static str, Color32) {
+    match s {
+        Status::Significant => ("SIGNIFICANT", theme::GREEN),
+        Status::Ambiguous => ("AMBIGUOUS", theme::AMBER),
+        Status::NotSignificant => ("not significant", theme::DIM),
+        Status::Screened => ("screened", theme::DIM),
+        Status::NotTestable => ("not testable", theme::DIM),
+        Status::NotApplicable => ("not applicable", theme::DIM),
+        Status::Contained => ("in the model", theme::ESTIMATE),
+    }
+}
+
+pub(crate) fn lab_tab(app: &mut StationApp, ui: &mut Ui) {
+    let lab = &mut app.lab;
+    ui.horizontal(|ui| {
+        let l = ui.label("Data (CSV or MCAP)");
+        ui.add(
+            egui::TextEdit::singleline(&mut lab.path)
+                .desired_width(360.0)
+                .hint_text("measurements.csv"),
+        )
+        .labelled_by(l.id);
+        let busy = lab.is_busy();
+        if ui.add_enabled(!busy, egui::Button::new("Load")).clicked() {
+            let p = std::path::PathBuf::from(lab.path.trim());
+            lab.start_load(&p);
+        }
+        if let Some(last) = app.live_view.recording.last_file.clone()
+            && ui
+                .add_enabled(!busy, egui::Button::new("Last recording"))
+                .clicked()
+        {
+            lab.path = last.display().to_string();
+            lab.start_load(&last);
+        }
+        ui.separator();
+        let before = lab.kind;
+        egui::ComboBox::new("lab_model", "model")
+            .selected_text(lab.kind.name())
+            .show_ui(ui, |ui| {
+                for k in [BaseKind::Model1, BaseKind::Model2, BaseKind::Model3] {
+                    ui.selectable_value(&mut lab.kind, k, k.name());
+                }
+            });
+        if lab.kind != before {
+            lab.model = None;
+        }
+        let ready = lab.data.is_some() && !busy;
+        if ui
+            .add_enabled(ready, egui::Button::new("Compare"))
+            .clicked()
+        {
+            lab.start_compare();
+        }
+        if ui
+            .add_enabled(ready, egui::Button::new("Diagnose"))
+            .clicked()
+        {
+            lab.start_diagnose();
+        }
+        if let Some((what, _)) = &lab.busy {
+            ui.spinner();
+            ui.label(RichText::new(format!("{what}... (background)")).color(theme::AMBER));
+        }
+    });
+    if let Some(d) = &lab.data {
+        ui.label(
+            RichText::new(format!(
+                "{}: {} samples, {:.1} s (training {:.1} s, held out {:.1} s)",
+                d.name,
+                d.full.len(),
+                d.full.duration_s(),
+                d.train.duration_s(),
+                d.val.duration_s()
+            ))
+            .small()
+            .color(theme::DIM),
+        );
+        for w in d.warnings.iter().take(3) {
+            ui.label(
+                RichText::new(format!("warning: {w}"))
+                    .small()
+                    .color(theme::AMBER),
+            );
+        }
+    }
+    if let Some(e) = &lab.error {
+        ui.label(RichText::new(e).color(theme::RED));
+    }
+    ui.separator();
+    let mut add: Option<EffectId> = None;
+    egui::Panel::right("lab_findings")
+        .exact_size(430.0)
+        .resizable(false)
+        .show(ui, |ui| {
+            ui.label(RichText::new("DIAGNOSIS").strong());
+            let Some(diag) = &lab.diagnosis else {
+                ui.label(
+                    RichText::new("Run the diagnosis to see which effect the model misses.")
+                        .color(theme::DIM),
+                );
+                return;
+            };
+            ui.label(RichText::new(&diag.summary).strong());
+            egui::ScrollArea::vertical()
+                .id_salt("findings")
+                .max_height(ui.available_height() - 200.0)
+                .show(ui, |ui| {
+                    for f in diag.findings.iter().filter(|f| {
+                        !matches!(f.status, Status::NotApplicable | Status::NotTestable)
+                    }) {
+                        egui::Frame::group(ui.style()).show(ui, |ui| {
+                            ui.set_width(ui.available_width());
+                            ui.horizontal(|ui| {
+                                ui.label(RichText::new(&f.effect).strong().size(15.0));
+                                let (b, c) = status_badge(f.status);
+                                ui.label(RichText::new(b).small().strong().color(c));
+                                let effect = EffectId::parse(&f.effect);
+                                let already = effect.is_some_and(|e| {
+                                    lab.added.contains(&e)
+                                        || lab
+                                            .model
+                                            .as_ref()
+                                            .is_some_and(|m| m.active_effects().contains(&e))
+                                });
+                                let can =
+                                    effect.is_some() && !f.contained && !already && !lab.is_busy();
+                                ui.with_layout(
+                                    egui::Layout::right_to_left(egui::Align::Center),
+                                    |ui| {
+                                        let label = if f.contained {
+                                            "In the model"
+                                        } else if already {
+                                            "Added"
+                                        } else {
+                                            "Add effect"
+                                        };
+                                        if ui.add_enabled(can, egui::Button::new(label)).clicked() {
+                                            add = effect;
+                                        }
+                                    },
+                                );
+                            });
+                            let red: Vec<String> = MAIN_CHANNELS
+                                .iter()
+                                .filter_map(|k| {
+                                    f.validation_rmse_reduction_pct
+                                        .get(*k)
+                                        .map(|v| format!("{k} {:+.0} %", -v))
+                                })
+                                .collect();
+                            if !red.is_empty() {
+                                ui.label(
+                                    RichText::new(format!(
+                                        "held-out RMSE change ({}): {}",
+                                        f.view,
+                                        red.join(", ")
+                                    ))
+                                    .small(),
+                                );
+                            }
+                            ui.label(RichText::new(&f.explanation).small().color(theme::SCALE));
+                            if let Some(s) = &f.separating_experiment {
+                                ui.label(
+                                    RichText::new(format!("to tell apart: {s}"))
+                                        .small()
+                                        .color(theme::AMBER),
+                                );
+                            }
+                        });
+                    }
+                });
+            ui.separator();
+            ui.label(RichText::new("ERROR FALL (held-out free-run RMSE)").strong());
+            error_fall(ui, &lab.fall);
+        });
+    if let Some(e) = add {
+        lab.start_add_effect(e);
+    }
+    comparison_plots(ui, lab.comparison.as_ref());
+}
+
+/// The channels the lab's summaries show (when the data has them).
+const MAIN_CHANNELS: [&str; 5] = ["depth", "heading", "pitch", "roll", "yaw_rate"];
+
+fn error_fall(ui: &mut Ui, fall: &[(String, BTreeMap<String, f64>)]) {
+    if fall.is_empty() {
+        ui.label(RichText::new("no steps yet").color(theme::DIM));
+        return;
+    }
+    let channels: Vec<&str> = MAIN_CHANNELS
+        .iter()
+        .copied()
+        .filter(|c| fall.iter().any(|(_, m)| m.contains_key(*c)))
+        .collect();
+    let steps: Vec<String> = fall
+        .iter()
+        .enumerate()
+        .map(|(i, (l, _))| format!("{i}: {l}"))
+        .collect();
+    ui.label(RichText::new(steps.join("   ")).small().color(theme::DIM));
+    let colors = [
+        theme::VALUE,
+        theme::ESTIMATE,
+        theme::PREDICTION,
+        theme::SETPOINT,
+        theme::THRUST,
+        theme::AMBER,
+    ];
+    ui.horizontal_wrapped(|ui| {
+        for (k, ch) in channels.iter().enumerate() {
+            crate::instruments::dot_label(ui, colors[k % colors.len()], RichText::new(*ch).small());
+        }
+    });
+    Plot::new("error_fall")
+        .height(140.0)
+        .allow_drag(false)
+        .allow_zoom(false)
+        .allow_scroll(false)
+        .include_y(0.0)
+        .include_y(110.0)
+        .y_axis_label("% of base")
+        .x_axis_formatter(|m, _| {
+            let i = m.value.round();
+            if (m.value - i).abs() < 1e-6 && i >= 0.0 {
+                format!("{i:.0}")
+            } else {
+                String::new()
+            }
+        })
+        .show(ui, |p| {
+            for (k, ch) in channels.iter().enumerate() {
+                // Normalised to the first step so channels of different units share an axis.
+                let first = fall
+                    .first()
+                    .and_then(|(_, m)| m.get(*ch))
+                    .copied()
+                    .unwrap_or(1.0);
+                let pts: Vec<[f64; 2]> = fall
+                    .iter()
+                    .enumerate()
+                    .filter_map(|(i, (_, m))| {
+                        m.get(*ch)
+                            .map(|v| [i as f64, if first > 0.0 { 100.0 * v / first } else { 0.0 }])
+                    })
+                    .collect();
+                let color = colors[k % colors.len()];
+                p.line(
+                    Line::new(format!("{ch} %"), PlotPoints::new(pts.clone()))
+                        .color(color)
+                        .width(2.0),
+                );
+                p.points(
+                    Points::new(format!("{ch} %"), PlotPoints::new(pts))
+                        .color(color)
+                        .radius(3.5),
+                );
+            }
+        });
+}
+
+fn comparison_plots(ui: &mut Ui, c: Option<&Comparison>) {
+    let Some(c) = c else {
+        ui.label(
+            RichText::new("Compare or diagnose to see the model against the measurements.")
+                .color(theme::DIM),
+        );
+        return;
+    };
+    ui.label(RichText::new(format!("MODEL {} VS MEASURED", c.model)).strong());
+    let shown: Vec<&ComparedChannel> = c
+        .channels
+        .iter()
+        .filter(|ch| ["depth", "heading", "pitch", "roll"].contains(&ch.name.as_str()))
+        .collect();
+    let n = shown.len().max(1) as f32;
+    let each = ((ui.available_height() - 8.0) / n).max(70.0);
+    let width = ui.available_width().max(100.0) as usize;
+    for ch in shown {
+        let fit = ch
+            .fit_pct
+            .map_or("fit n/a".to_string(), |f| format!("fit {f:.1} %"));
+        let title = format!("{}: {fit} (rmse {:.3})", ch.name, ch.rmse);
+        let idx: Vec<usize> = (0..c.t.len()).collect();
+        let step = (idx.len() / (2 * width)).max(1);
+        let meas: Vec<[f64; 2]> = idx
+            .iter()
+            .step_by(step)
+            .filter_map(|&i| Some([*c.t.get(i)?, *ch.measured.get(i)?]))
+            .filter(|p| p[1].is_finite())
+            .collect();
+        let pred: Vec<[f64; 2]> = idx
+            .iter()
+            .step_by(step)
+            .filter_map(|&i| Some([*c.t.get(i)?, *ch.predicted.get(i)?]))
+            .filter(|p| p[1].is_finite())
+            .collect();
+        ui.label(RichText::new(title).small().strong());
+        Plot::new(("lab_cmp", ch.name.as_str()))
+            .height(each - 22.0)
+            .legend(Legend::default().position(Corner::LeftTop))
+            .allow_drag(false)
+            .allow_zoom(false)
+            .allow_scroll(false)
+            .link_axis(egui::Id::unique("lab_x"), [true, false])
+            .y_axis_min_width(44.0)
+            .show(ui, |p| {
+                p.line(
+                    Line::new("measured", PlotPoints::new(meas))
+                        .color(theme::VALUE)
+                        .width(1.5),
+                );
+                p.line(
+                    Line::new("model", PlotPoints::new(pred))
+                        .color(theme::PREDICTION)
+                        .width(1.5),
+                );
+            });
+        ui.add_space(2.0);
+    }
+    let _ = vec2(0.0, 0.0);
+}

@@ -1,0 +1,127 @@
+//! The station GUI (egui/eframe): the pilot's HUD, autopilot, health, plots, recording,
+//! replay and the model lab.
+//!
+//! The GUI renders [`StationView`](rov_station::runtime::StationView)s and emits commands;
+//! control and safety timers (the control tick, hold-to-arm, input liveness, watchdog,
+//! alarms) live in [`rov_station::runtime`], never in a GUI frame.
+//!
+//! * [`app`]: [`StationApp`] (state, frame, top bar, alarm bar, keyboard) and the
+//!   [`Backend`] that supplies stations (real threads in the binary, virtual ones in
+//!   tests).
+//! * [`instruments`]: depth tape, heading tape with turns counter, artificial horizon,
+//!   pitch glyph, thruster bars, hold-to-arm button.
+//! * `fly`, `panels`: the Fly tab and its side panels.
+//! * [`plots`]: decimated time plots.
+//! * `replay`, `connection`, [`lab`]: the other tabs.
+//! * [`run_native`]: opens the window.
+
+pub mod app;
+mod connection;
+mod fly;
+pub mod instruments;
+pub mod lab;
+mod panels;
+pub mod plots;
+mod replay;
+pub mod screenshot;
+pub mod theme;
+
+use std::path::{Path, PathBuf};
+use std::sync::mpsc::{Receiver, channel};
+use std::time::Duration;
+
+pub use app::{AutodetectResult, Backend, ScreenshotRequest, StationApp, Tab};
+use rov_station::runtime::{Connection, Runtime, RuntimeConfig, StationHandle};
+
+/// The real backend: stations on their own threads ([`Runtime`]).
+#[derive(Debug, Clone)]
+pub struct RealBackend {
+    /// Template for new live stations (the connection is replaced).
+    pub config: RuntimeConfig,
+    /// Where recordings go.
+    pub recordings_dir: PathBuf,
+}
+
+impl RealBackend {
+    /// With a configuration; recordings go to `recordings_dir`.
+    #[must_use]
+    pub fn new(config: RuntimeConfig, recordings_dir: PathBuf) -> Self {
+        Self {
+            config,
+            recordings_dir,
+        }
+    }
+}
+
+impl Backend for RealBackend {
+    fn connect(&mut self, connection: &Connection) -> Result<StationHandle, String> {
+        let cfg = RuntimeConfig {
+            connection: connection.clone(),
+            ..self.config.clone()
+        };
+        Runtime::start(cfg).map_err(|e| e.to_string())
+    }
+
+    fn open_replay(&mut self, path: &Path) -> Result<StationHandle, String> {
+        Runtime::replay(path).map_err(|e| e.to_string())
+    }
+
+    fn ports(&mut self) -> Vec<String> {
+        rov_driver::available_port_names().unwrap_or_default()
+    }
+
+    fn autodetect(&mut self, ports: Vec<String>) -> Receiver<AutodetectResult> {
+        let (tx, rx) = channel();
+        let node = self.config.link.node;
+        let spawned = std::thread::Builder::new()
+            .name("autodetect".into())
+            .spawn(move || {
+                let r = rov_driver::autodetect(&ports, node, Duration::from_millis(400));
+                let _ = tx.send(AutodetectResult {
+                    found: r.found.map(|p| p.port),
+                    tried: r.tried,
+                });
+            });
+        if spawned.is_err() {
+            // The receiver then reports nothing; the GUI shows the spinner until the
+            // pilot tries again.
+        }
+        rx
+    }
+
+    fn recording_path(&mut self) -> PathBuf {
+        let secs = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(0, |d| d.as_secs());
+        let _ = std::fs::create_dir_all(&self.recordings_dir);
+        self.recordings_dir.join(format!("session-{secs}.mcap"))
+    }
+}
+
+/// Window options for the station (1280×800, titled).
+#[must_use]
+pub fn native_options() -> eframe::NativeOptions {
+    eframe::NativeOptions {
+        viewport: egui::ViewportBuilder::default()
+            .with_inner_size([1280.0, 800.0])
+            .with_min_inner_size([1024.0, 640.0])
+            .with_title("topside — VideoRay Pro 4 station"),
+        ..eframe::NativeOptions::default()
+    }
+}
+
+/// Opens the station window and runs until it is closed.
+///
+/// # Errors
+/// eframe's error text when the window cannot be created.
+pub fn run_native(app: StationApp) -> Result<(), String> {
+    eframe::run_native(
+        "topside",
+        native_options(),
+        Box::new(move |cc| {
+            theme::apply(&cc.egui_ctx);
+            Ok(Box::new(app))
+        }),
+    )
+    .map_err(|e| e.to_string())
+}

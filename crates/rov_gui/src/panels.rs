@@ -1,0 +1,486 @@
+//! The side panels: autopilot, health, link, camera, sticks; and the top bar's link pill
+//! and recording control.
+
+use egui::{Color32, RichText, Ui, vec2};
+use rov_control::{Axis, ModeCommand, ModelChoice};
+use rov_station::StationCommand;
+use rov_station::runtime::{AxisModeView, CameraCommand, PadStatus, RuntimeCommand, StationView};
+
+use crate::app::StationApp;
+use crate::instruments::{dot_label, group_title, stick_bar};
+use crate::theme;
+
+fn opt(v: Option<f64>, digits: usize, unit: &str) -> String {
+    v.map_or_else(|| "---".into(), |x| format!("{x:.digits$} {unit}"))
+}
+
+fn mode_cmd(app: &mut StationApp, m: ModeCommand) {
+    app.live_cmd(RuntimeCommand::Station(StationCommand::Mode(m)));
+}
+
+fn axis_row(app: &mut StationApp, ui: &mut Ui, axis: Axis, v: &StationView, replay: bool) {
+    let (name, av) = match axis {
+        Axis::Depth => ("DEPTH", v.depth),
+        Axis::Heading => ("HEADING", v.heading),
+    };
+    let mut name_id = None;
+    ui.horizontal(|ui| {
+        name_id = Some(
+            ui.add_sized(
+                vec2(64.0, 20.0),
+                egui::Label::new(RichText::new(name).strong()),
+            )
+            .id,
+        );
+        let onboard = app.onboard;
+        let engaged = av.mode != AxisModeView::Manual;
+        let label = match av.mode {
+            AxisModeView::Manual => "OFF",
+            AxisModeView::Hold => "HOLD",
+            AxisModeView::Onboard => "HOLD (onboard)",
+        };
+        let color = if !engaged {
+            Color32::from_gray(60)
+        } else if av.overridden {
+            theme::AMBER
+        } else {
+            theme::GREEN
+        };
+        let b = egui::Button::new(RichText::new(label).strong().color(Color32::WHITE))
+            .fill(color)
+            .min_size(vec2(110.0, 24.0));
+        let r = ui.add_enabled(!replay, b);
+        if r.clicked() {
+            let m = if engaged {
+                ModeCommand::Disengage(axis)
+            } else if onboard {
+                ModeCommand::EngageVehicleAuto(axis)
+            } else {
+                ModeCommand::Engage(axis)
+            };
+            mode_cmd(app, m);
+        }
+        let sp = match axis {
+            Axis::Depth => av.setpoint.map_or("---".into(), |x| format!("{x:.2} m")),
+            Axis::Heading => av.setpoint.map_or("---".into(), |x| {
+                format!("{:03}°", (x.round() as i64).rem_euclid(360))
+            }),
+        };
+        ui.label(
+            RichText::new(sp)
+                .monospace()
+                .size(17.0)
+                .color(theme::SETPOINT),
+        );
+        if av.overridden {
+            ui.label(
+                RichText::new("OVERRIDE")
+                    .small()
+                    .strong()
+                    .color(theme::AMBER),
+            );
+        }
+    });
+    ui.add_enabled_ui(!replay, |ui| {
+        ui.horizontal(|ui| {
+            let steps: [(f64, &str); 4] = match axis {
+                Axis::Depth => [(-1.0, "-1"), (-0.1, "-0.1"), (0.1, "+0.1"), (1.0, "+1")],
+                Axis::Heading => [(-10.0, "-10"), (-1.0, "-1"), (1.0, "+1"), (10.0, "+10")],
+            };
+            for (d, label) in steps {
+                if ui
+                    .add(egui::Button::new(label).min_size(vec2(38.0, 20.0)))
+                    .clicked()
+                {
+                    mode_cmd(
+                        app,
+                        match axis {
+                            Axis::Depth => ModeCommand::StepDepth { delta_m: d },
+                            Axis::Heading => ModeCommand::StepHeading { delta_deg: d },
+                        },
+                    );
+                }
+            }
+            let (text, hint) = match axis {
+                Axis::Depth => (&mut app.depth_text, "m"),
+                Axis::Heading => (&mut app.heading_text, "deg"),
+            };
+            let edit = egui::TextEdit::singleline(text)
+                .hint_text(hint)
+                .desired_width(54.0)
+                .id_salt(("setpoint", name));
+            let mut r = ui.add(edit);
+            if let Some(id) = name_id {
+                r = r.labelled_by(id);
+            }
+            let enter = r.lost_focus() && ui.input(|i| i.key_pressed(egui::Key::Enter));
+            if ui.button("Go").clicked() || enter {
+                let parsed = text.trim().replace(',', ".").parse::<f64>();
+                match parsed {
+                    Ok(x) if x.is_finite() => {
+                        text.clear();
+                        mode_cmd(
+                            app,
+                            match axis {
+                                Axis::Depth => ModeCommand::SetDepth { depth_m: x },
+                                Axis::Heading => ModeCommand::SetHeading { heading_deg: x },
+                            },
+                        );
+                    }
+                    _ => app.message = Some(format!("not a number: {text:?}")),
+                }
+            }
+        });
+    });
+}
+
+pub(crate) fn autopilot_panel(app: &mut StationApp, ui: &mut Ui) {
+    let (v, _) = app.shown();
+    let v = v.clone();
+    let replay = app.replay.is_some();
+    ui.horizontal(|ui| {
+        group_title(ui, "AUTOPILOT");
+        ui.with_layout(egui::Layout::right_to_left(egui::Align::Center), |ui| {
+            ui.add_enabled_ui(!replay, |ui| {
+                ui.selectable_value(&mut app.onboard, true, "Onboard");
+                ui.selectable_value(&mut app.onboard, false, "Topside");
+            });
+        });
+    });
+    axis_row(app, ui, Axis::Depth, &v, replay);
+    axis_row(app, ui, Axis::Heading, &v, replay);
+    ui.add_enabled_ui(!replay, |ui| {
+        ui.horizontal(|ui| {
+            let mut ff = v.feedforward;
+            if ui.checkbox(&mut ff, "Feedforward").changed() {
+                mode_cmd(app, ModeCommand::SetFeedforward(ff));
+            }
+            let mut model = v.model;
+            egui::ComboBox::new("model", "model")
+                .selected_text(model.name())
+                .width(90.0)
+                .show_ui(ui, |ui| {
+                    for m in ModelChoice::ALL {
+                        ui.selectable_value(&mut model, m, m.name());
+                    }
+                });
+            if model != v.model {
+                mode_cmd(app, ModeCommand::SelectModel(model));
+            }
+        });
+    });
+    ui.label(
+        RichText::new("Centre the stick to hold, move it to override, release to latch; drag the tapes or type to set.")
+            .small()
+            .color(theme::DIM),
+    );
+}
+
+fn level(x: Option<f64>, warn: impl Fn(f64) -> bool, alarm: impl Fn(f64) -> bool) -> Color32 {
+    match x {
+        None => theme::DIM,
+        Some(x) if alarm(x) => theme::RED,
+        Some(x) if warn(x) => theme::AMBER,
+        Some(_) => theme::GREEN,
+    }
+}
+
+pub(crate) fn health_panel(app: &StationApp, ui: &mut Ui) {
+    let v = app.shown().0;
+    let h = &v.health;
+    group_title(ui, "HEALTH");
+    egui::Grid::new("health")
+        .num_columns(2)
+        .spacing(vec2(10.0, 3.0))
+        .show(ui, |ui| {
+            let rate = h
+                .humidity_rate_pct_per_min
+                .map_or(String::new(), |r| format!("  ({r:+.1} %/min)"));
+            let hc = level(h.humidity_pct, |x| x > 45.0, |x| x > 60.0);
+            let rc = level(h.humidity_rate_pct_per_min, |x| x > 0.5, |x| x > 2.0);
+            let color = if rc == theme::RED || hc == theme::RED {
+                theme::RED
+            } else if rc == theme::AMBER || hc == theme::AMBER {
+                theme::AMBER
+            } else {
+                hc
+            };
+            dot_label(ui, color, "Humidity");
+            ui.label(RichText::new(format!("{}{rate}", opt(h.humidity_pct, 1, "%"))).monospace());
+            ui.end_row();
+            dot_label(
+                ui,
+                level(h.water_temp_c, |x| x > 35.0, |_| false),
+                "Water temp",
+            );
+            ui.label(RichText::new(opt(h.water_temp_c, 1, "°C")).monospace());
+            ui.end_row();
+            dot_label(ui, level(h.tether_v, |x| x < 66.0, |x| x < 60.0), "Tether");
+            ui.label(RichText::new(opt(h.tether_v, 1, "V")).monospace());
+            ui.end_row();
+            dot_label(ui, level(h.rail_v, |x| x < 11.5, |x| x < 11.0), "12 V rail");
+            ui.label(
+                RichText::new(format!(
+                    "{}  {}",
+                    opt(h.rail_v, 2, "V"),
+                    opt(h.rail_a, 2, "A")
+                ))
+                .monospace(),
+            );
+            ui.end_row();
+            dot_label(ui, level(h.power_w, |x| x > 250.0, |_| false), "Power");
+            ui.label(
+                RichText::new(format!(
+                    "{}  {}",
+                    opt(h.power_w, 1, "W"),
+                    h.power_pct.map_or(String::new(), |p| format!("({p:.0} %)"))
+                ))
+                .monospace(),
+            );
+            ui.end_row();
+        });
+}
+
+pub(crate) fn link_panel(app: &StationApp, ui: &mut Ui) {
+    let v = app.shown().0;
+    let l = &v.link;
+    ui.horizontal(|ui| {
+        group_title(ui, "LINK");
+        dot_label(
+            ui,
+            theme::quality(l.quality),
+            RichText::new(&l.health).strong(),
+        );
+    });
+    egui::Grid::new("link")
+        .num_columns(2)
+        .spacing(vec2(10.0, 2.0))
+        .show(ui, |ui| {
+            ui.label("Round trip");
+            ui.label(
+                RichText::new(format!(
+                    "{} (p99 {})",
+                    opt(l.rtt_p50_ms, 1, "ms"),
+                    opt(l.rtt_p99_ms, 1, "ms")
+                ))
+                .monospace(),
+            );
+            ui.end_row();
+            ui.label("Exchange rate");
+            ui.label(RichText::new(opt(l.exchange_hz, 1, "/s")).monospace());
+            ui.end_row();
+            ui.label("Errors");
+            ui.label(
+                RichText::new(format!(
+                    "{}  ({} total)",
+                    opt(l.error_pct, 1, "%"),
+                    l.errors
+                ))
+                .monospace(),
+            );
+            ui.end_row();
+            ui.label("Last good frame");
+            ui.label(RichText::new(opt(l.last_good_age_s, 2, "s ago")).monospace());
+            ui.end_row();
+        });
+}
+
+pub(crate) fn link_pill(ui: &mut Ui, v: &StationView) {
+    let l = &v.link;
+    let color = theme::quality(l.quality);
+    ui.vertical(|ui| {
+        ui.horizontal(|ui| {
+            let (rect, _) = ui.allocate_exact_size(vec2(14.0, 14.0), egui::Sense::hover());
+            ui.painter().circle_filled(rect.center(), 7.0, color);
+            ui.label(
+                RichText::new(format!("LINK {}", l.health.to_uppercase()))
+                    .strong()
+                    .color(color),
+            );
+        });
+        ui.label(
+            RichText::new(format!(
+                "{} · {} · err {} · {}",
+                l.rtt_p50_ms
+                    .map_or("--- ms".into(), |x| format!("{x:.0} ms")),
+                l.exchange_hz.map_or("--/s".into(), |x| format!("{x:.0}/s")),
+                l.error_pct.map_or("--%".into(), |x| format!("{x:.1}%")),
+                l.last_good_age_s
+                    .map_or("age ---".into(), |x| format!("age {x:.2}s")),
+            ))
+            .monospace()
+            .small(),
+        );
+    });
+}
+
+pub(crate) fn recording_control(app: &mut StationApp, ui: &mut Ui) {
+    let r = app.live_view.recording.clone();
+    let recording = r.path.is_some();
+    let text = if recording { "STOP REC" } else { "REC" };
+    let b = egui::Button::new(RichText::new(text).strong().color(Color32::WHITE))
+        .fill(if recording {
+            theme::RED
+        } else {
+            Color32::from_gray(60)
+        })
+        .min_size(vec2(96.0, 30.0));
+    if ui.add_enabled(app.live.is_some(), b).clicked() {
+        if recording {
+            app.live_cmd(RuntimeCommand::StopRecording);
+        } else {
+            let path = app.backend.recording_path();
+            app.live_cmd(RuntimeCommand::StartRecording(path));
+        }
+    }
+    ui.vertical(|ui| {
+        match &r.path {
+            Some(p) => {
+                let secs = r.elapsed_s as u64;
+                ui.label(
+                    RichText::new(format!("REC {:02}:{:02}", secs / 60, secs % 60))
+                        .strong()
+                        .color(theme::RED),
+                );
+                let name = p
+                    .file_name()
+                    .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
+                ui.label(RichText::new(format!("{name} · {} msgs", r.messages)).small());
+            }
+            None => {
+                ui.label(RichText::new("not recording").color(theme::DIM));
+                if let Some(p) = &r.last_file {
+                    let name = p
+                        .file_name()
+                        .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
+                    ui.label(
+                        RichText::new(format!("last: {name}"))
+                            .small()
+                            .color(theme::DIM),
+                    );
+                }
+            }
+        }
+        if let Some(e) = &r.error {
+            ui.label(RichText::new(e).small().color(theme::AMBER));
+        }
+        if r.dropped > 0 {
+            ui.label(
+                RichText::new(format!("{} dropped", r.dropped))
+                    .small()
+                    .color(theme::AMBER),
+            );
+        }
+    });
+}
+
+pub(crate) fn camera_panel(app: &mut StationApp, ui: &mut Ui) {
+    let c = app.shown().0.camera;
+    let replay = app.replay.is_some();
+    group_title(ui, "LIGHTS & CAMERA");
+    ui.add_enabled_ui(!replay, |ui| {
+        let mut lights = c.lights_pct;
+        if ui
+            .add(
+                egui::Slider::new(&mut lights, 0.0..=100.0)
+                    .step_by(5.0)
+                    .text("lights %"),
+            )
+            .changed()
+        {
+            app.live_cmd(RuntimeCommand::Camera(CameraCommand::Lights(lights)));
+        }
+        let mut tilt = c.tilt_deg;
+        if ui
+            .add(
+                egui::Slider::new(&mut tilt, -90.0..=90.0)
+                    .step_by(5.0)
+                    .text("camera tilt °"),
+            )
+            .changed()
+        {
+            app.live_cmd(RuntimeCommand::Camera(CameraCommand::Tilt(tilt)));
+        }
+        let mut focus = c.focus_pct;
+        if ui
+            .add(
+                egui::Slider::new(&mut focus, -100.0..=100.0)
+                    .step_by(5.0)
+                    .text("focus %"),
+            )
+            .changed()
+        {
+            app.live_cmd(RuntimeCommand::Camera(CameraCommand::Focus(focus)));
+        }
+    });
+}
+
+pub(crate) fn pad_text(p: &PadStatus) -> String {
+    match p {
+        PadStatus::Off => "gamepad: off".into(),
+        PadStatus::Unavailable(e) => format!("gamepad unavailable: {e}"),
+        PadStatus::NoPad => {
+            "gamepad: none (keyboard W/S A/D R/F, hold Space to arm, Esc disarms)".into()
+        }
+        PadStatus::Connected(n) => format!("gamepad: {n}"),
+        PadStatus::WaitingForCentre(n) => format!("gamepad {n}: centre the sticks"),
+    }
+}
+
+pub(crate) fn sticks_panel(app: &mut StationApp, ui: &mut Ui) {
+    let v = app.live_view.clone();
+    ui.horizontal(|ui| {
+        group_title(ui, "STICKS");
+        ui.label(
+            RichText::new(format!("input: {}", v.pilot.input))
+                .small()
+                .color(theme::DIM),
+        );
+    });
+    let p = &v.pilot;
+    stick_bar(ui, "surge", p.raw.surge, p.shaped.surge);
+    stick_bar(ui, "yaw", p.raw.yaw, p.shaped.yaw);
+    stick_bar(ui, "vertical", p.raw.vertical, p.shaped.vertical);
+    let armed = v.snapshot.armed;
+    egui::CollapsingHeader::new("Stick shaping (locked while armed)")
+        .id_salt("shaping")
+        .show(ui, |ui| {
+            ui.add_enabled_ui(!armed, |ui| {
+                let mut s = app.shaping;
+                egui::Grid::new("shaping_grid")
+                    .num_columns(4)
+                    .show(ui, |ui| {
+                        ui.label("");
+                        ui.label("deadband");
+                        ui.label("expo");
+                        ui.label("");
+                        ui.end_row();
+                        for (name, a) in [
+                            ("surge", &mut s.surge),
+                            ("yaw", &mut s.yaw),
+                            ("vertical", &mut s.vertical),
+                        ] {
+                            let l = ui.label(name);
+                            ui.add(
+                                egui::DragValue::new(&mut a.deadband)
+                                    .range(0.0..=0.5)
+                                    .speed(0.01),
+                            )
+                            .labelled_by(l.id);
+                            ui.add(
+                                egui::DragValue::new(&mut a.expo)
+                                    .range(0.0..=1.0)
+                                    .speed(0.01),
+                            )
+                            .labelled_by(l.id);
+                            ui.checkbox(&mut a.invert, "inv");
+                            ui.end_row();
+                        }
+                    });
+                if s != app.shaping {
+                    app.shaping = s;
+                    app.live_cmd(RuntimeCommand::Shaping(s));
+                }
+            });
+        });
+}

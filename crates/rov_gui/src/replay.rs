@@ -1,0 +1,152 @@
+//! Replay: the Replay tab opens a session; while a replay is open, a bar at the bottom of
+//! every tab has play/pause, step, speed and the seek bar, and the top bar shows the
+//! REPLAY badge. The instruments and plots show the replay; arming and the alarm bar
+//! stay on the live station.
+
+use std::path::PathBuf;
+
+use egui::{RichText, Ui, vec2};
+use rov_station::runtime::ReplayCommand;
+
+use crate::app::StationApp;
+use crate::theme;
+
+/// Speeds offered.
+pub const SPEEDS: [f64; 7] = [0.1, 0.25, 0.5, 1.0, 2.0, 5.0, 10.0];
+
+fn mmss(t: f64) -> String {
+    let s = t.max(0.0);
+    format!("{:02}:{:04.1}", (s / 60.0).floor() as u64, s % 60.0)
+}
+
+pub(crate) fn replay_bar(app: &mut StationApp, ui: &mut Ui) {
+    let Some(r) = app.replay_view.replay.clone() else {
+        return;
+    };
+    egui::Panel::bottom("replay_bar")
+        .frame(
+            egui::Frame::new()
+                .fill(egui::Color32::from_rgb(48, 42, 12))
+                .inner_margin(6.0),
+        )
+        .show(ui, |ui| {
+            ui.horizontal(|ui| {
+                ui.label(RichText::new("REPLAY").strong().color(theme::REPLAY));
+                let play = if r.playing { "Pause" } else { "Play" };
+                if ui
+                    .add(egui::Button::new(play).min_size(vec2(80.0, 24.0)))
+                    .clicked()
+                {
+                    app.replay_cmd(ReplayCommand::Toggle);
+                }
+                if ui.button("Step").clicked() {
+                    app.replay_cmd(ReplayCommand::Step);
+                }
+                let mut speed = r.speed;
+                egui::ComboBox::new("replay_speed", "speed")
+                    .selected_text(format!("{speed}×"))
+                    .width(70.0)
+                    .show_ui(ui, |ui| {
+                        for s in SPEEDS {
+                            ui.selectable_value(&mut speed, s, format!("{s}×"));
+                        }
+                    });
+                if (speed - r.speed).abs() > 1e-9 {
+                    app.replay_cmd(ReplayCommand::Speed(speed));
+                }
+                ui.label(
+                    RichText::new(format!("{} / {}", mmss(r.position_s), mmss(r.duration_s)))
+                        .monospace(),
+                );
+                let mut pos = r.position_s;
+                let w = (ui.available_width() - 170.0).max(100.0);
+                ui.spacing_mut().slider_width = w;
+                let resp = ui.add(
+                    egui::Slider::new(&mut pos, 0.0..=r.duration_s.max(0.001))
+                        .show_value(false)
+                        .trailing_fill(true)
+                        .text("seek"),
+                );
+                if resp.changed() {
+                    app.replay_cmd(ReplayCommand::Seek(pos));
+                }
+                if ui.button("Back to live").clicked() {
+                    app.close_replay();
+                }
+            });
+        });
+}
+
+pub(crate) fn replay_tab(app: &mut StationApp, ui: &mut Ui) {
+    ui.heading("Replay a session");
+    ui.label(
+        RichText::new(
+            "Opens an MCAP session (a truncated recording too) and plays it through the same \
+             view as the live station. Arming and alarms stay on the live vehicle.",
+        )
+        .color(theme::DIM),
+    );
+    ui.horizontal(|ui| {
+        let l = ui.label("File");
+        ui.add(
+            egui::TextEdit::singleline(&mut app.replay_path)
+                .desired_width(520.0)
+                .hint_text("path/to/session.mcap"),
+        )
+        .labelled_by(l.id);
+        if ui.button("Open").clicked() {
+            let p = PathBuf::from(app.replay_path.trim());
+            app.open_replay(&p);
+        }
+        if app.replay.is_some() && ui.button("Close replay").clicked() {
+            app.close_replay();
+        }
+    });
+    if let Some(last) = app.live_view.recording.last_file.clone()
+        && ui
+            .button(format!(
+                "Open the last recording ({})",
+                last.file_name()
+                    .map_or_else(String::new, |n| n.to_string_lossy().into_owned())
+            ))
+            .clicked()
+    {
+        app.replay_path = last.display().to_string();
+        app.open_replay(&last);
+    }
+    if let Some(r) = app
+        .replay_view
+        .replay
+        .clone()
+        .filter(|_| app.replay.is_some())
+    {
+        ui.separator();
+        egui::Grid::new("replay_info")
+            .num_columns(2)
+            .show(ui, |ui| {
+                ui.label("File");
+                let name = match &app.replay_view.source {
+                    rov_station::runtime::Source::Replay(p) => p
+                        .file_name()
+                        .map_or_else(String::new, |n| n.to_string_lossy().into_owned()),
+                    other => format!("{other:?}"),
+                };
+                ui.label(name);
+                ui.end_row();
+                ui.label("Duration");
+                ui.label(format!("{:.1} s", r.duration_s));
+                ui.end_row();
+                ui.label("Messages");
+                ui.label(format!("{}", r.messages));
+                ui.end_row();
+            });
+        for w in &r.warnings {
+            ui.label(RichText::new(format!("warning: {w}")).color(theme::AMBER));
+        }
+        ui.separator();
+        ui.label(RichText::new("Events").strong());
+        for e in app.replay_view.events.iter().rev() {
+            ui.label(RichText::new(e).monospace().small());
+        }
+    }
+}

@@ -1,0 +1,533 @@
+//! Headless GUI tests (egui_kittest, wgpu on a CPU adapter, no DISPLAY): every panel
+//! rendered and compared with the PNGs in `tests/snapshots/`, and the pilot's main
+//! actions: hold to arm, engage depth hold, change a setpoint, open a replay, run a
+//! diagnosis in the lab.
+//!
+//! The GUI talks to a `VirtualStation` (the real engine on virtual time, seeded) behind an
+//! ordinary `StationHandle`; the test is the clock, so every frame is deterministic.
+//! Regenerate the images with `UPDATE_SNAPSHOTS=1` (then look at them).
+
+use std::path::{Path, PathBuf};
+use std::sync::mpsc::{Receiver, channel};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use egui::{Event, Modifiers, PointerButton, Pos2, vec2};
+use egui_kittest::Harness;
+use egui_kittest::kittest::Queryable;
+use rov_gui::{AutodetectResult, Backend, StationApp, Tab};
+use rov_station::runtime::{
+    AlarmKind, AxisModeView, Connection, RuntimeConfig, StationHandle, VirtualReplay,
+    VirtualStation,
+};
+
+/// Station frames per GUI frame: 50 ms of virtual time.
+const FRAME_S: f64 = 0.05;
+
+#[derive(Default, Clone)]
+struct Shared {
+    replays: Arc<Mutex<Vec<VirtualReplay>>>,
+}
+
+struct TestBackend {
+    shared: Shared,
+    rec: PathBuf,
+}
+
+impl Backend for TestBackend {
+    fn connect(&mut self, _c: &Connection) -> Result<StationHandle, String> {
+        Err("no new connections in this test".into())
+    }
+
+    fn open_replay(&mut self, path: &Path) -> Result<StationHandle, String> {
+        let (r, h) = VirtualReplay::open(path).map_err(|e| e.to_string())?;
+        self.shared.replays.lock().unwrap().push(r);
+        Ok(h)
+    }
+
+    fn ports(&mut self) -> Vec<String> {
+        vec!["/dev/ttyUSB0".into(), "/dev/ttyS0".into()]
+    }
+
+    fn autodetect(&mut self, ports: Vec<String>) -> Receiver<AutodetectResult> {
+        let (tx, rx) = channel();
+        let _ = tx.send(AutodetectResult {
+            found: None,
+            tried: ports
+                .into_iter()
+                .map(|p| (p, Some("no response".into())))
+                .collect(),
+        });
+        rx
+    }
+
+    fn recording_path(&mut self) -> PathBuf {
+        self.rec.clone()
+    }
+}
+
+struct Rig {
+    st: VirtualStation,
+    harness: Harness<'static, StationApp>,
+    shared: Shared,
+}
+
+fn tmp(name: &str) -> PathBuf {
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("rov_gui_tests");
+    std::fs::create_dir_all(&dir).unwrap();
+    dir.join(name)
+}
+
+fn rig(rec_name: &str) -> Rig {
+    let cfg = RuntimeConfig {
+        gamepad: false,
+        ..RuntimeConfig::default()
+    };
+    let (st, handle) = VirtualStation::new(cfg).unwrap();
+    let shared = Shared::default();
+    let backend = TestBackend {
+        shared: shared.clone(),
+        rec: tmp(rec_name),
+    };
+    let app = StationApp::new(Box::new(backend), Some(handle));
+    let harness = Harness::builder()
+        .with_size(vec2(1280.0, 800.0))
+        .with_step_dt(FRAME_S as f32)
+        .build_ui_state(|ui, app: &mut StationApp| app.ui(ui), app);
+    Rig {
+        st,
+        harness,
+        shared,
+    }
+}
+
+impl Rig {
+    /// Advances the station and the GUI by `secs` in frames of 50 ms.
+    fn run(&mut self, secs: f64) {
+        let n = (secs / FRAME_S).round() as usize;
+        // GUI frame first (it sends the commands of this frame), then the station.
+        for _ in 0..n.max(1) {
+            self.harness.step();
+            self.st.advance(FRAME_S).unwrap();
+            for r in self.shared.replays.lock().unwrap().iter_mut() {
+                r.advance(FRAME_S);
+            }
+        }
+        // One more frame so the GUI shows the latest state.
+        self.harness.step();
+    }
+
+    fn view(&self) -> rov_station::runtime::StationView {
+        self.harness.state().live_view().clone()
+    }
+
+    fn click(&mut self, label: &str) {
+        self.click_nth(label, 0);
+    }
+
+    /// Hovers for a frame, then clicks (a click right after the pointer left the window
+    /// is not taken by egui).
+    fn click_nth(&mut self, label: &str, n: usize) {
+        let node = self.harness.get_all_by_label(label).nth(n);
+        let node = node.unwrap_or_else(|| panic!("no {label:?} #{n}"));
+        node.hover();
+        self.harness.step();
+        self.harness.get_all_by_label(label).nth(n).unwrap().click();
+        self.run(FRAME_S);
+    }
+
+    fn centre(&self, label: &str) -> Pos2 {
+        self.harness.get_by_label(label).rect().center()
+    }
+
+    fn press(&mut self, pos: Pos2, pressed: bool) {
+        self.harness.event(Event::PointerMoved(pos));
+        self.harness.event(Event::PointerButton {
+            pos,
+            button: PointerButton::Primary,
+            pressed,
+            modifiers: Modifiers::default(),
+        });
+    }
+
+    /// Hold to arm with the mouse: press, 1.2 s of frames, release.
+    fn arm(&mut self) {
+        let p = self.centre("HOLD TO ARM");
+        self.press(p, true);
+        self.run(0.5);
+        assert!(
+            self.view().pilot.arm_progress > 0.3,
+            "{:?}",
+            self.view().pilot
+        );
+        assert!(!self.view().snapshot.armed);
+        self.run(0.7);
+        self.press(p, false);
+        self.run(0.1);
+        assert!(self.view().snapshot.armed, "{:#?}", self.view());
+    }
+
+    /// Snapshot with the pointer where it is (e.g. holding a button).
+    fn snapshot_here(&mut self, name: &str) {
+        self.harness.snapshot(name);
+    }
+
+    /// Snapshot with a region masked (machine-dependent text such as a path).
+    fn snapshot_masked(&mut self, name: &str, rect: egui::Rect) {
+        self.harness.event(Event::PointerGone);
+        self.harness.step();
+        self.harness.mask(rect);
+        self.harness.snapshot(name);
+    }
+
+    fn snapshot(&mut self, name: &str) {
+        // Park the pointer outside the window so no hover effect is captured.
+        self.harness.event(Event::PointerGone);
+        self.harness.step();
+        self.harness.snapshot(name);
+    }
+}
+
+#[test]
+fn fly_tab_arm_hold_depth_hold_and_setpoint() {
+    let mut r = rig("fly.mcap");
+    r.run(2.0);
+    assert_eq!(r.view().link.health, "connected");
+    r.snapshot("fly_disarmed");
+
+    // Hold to arm: a short press does nothing, a 1 s hold arms.
+    let p = r.centre("HOLD TO ARM");
+    r.press(p, true);
+    r.run(0.3);
+    r.press(p, false);
+    r.run(1.2);
+    assert!(!r.view().snapshot.armed, "a short press must not arm");
+    r.press(p, true);
+    r.run(0.55);
+    r.snapshot_here("fly_arming");
+    r.run(0.65);
+    r.press(p, false);
+    r.run(0.1);
+    assert!(r.view().snapshot.armed);
+    r.snapshot("fly_armed");
+
+    // Engage depth hold (the first OFF button is the depth row's).
+    r.click_nth("OFF", 0);
+    assert_eq!(
+        r.view().depth.mode,
+        AxisModeView::Hold,
+        "{:?} {:?}",
+        r.view().last_refusal,
+        r.view().events
+    );
+    let sp0 = r.view().depth.setpoint.unwrap();
+    r.run(1.0);
+    r.snapshot("fly_depth_hold");
+
+    // Change the setpoint: +1 m with the step button, then type 2.5 m.
+    r.click_nth("+1", 0);
+    let sp1 = r.view().depth.setpoint.unwrap();
+    assert!((sp1 - sp0 - 1.0).abs() < 1e-9, "{sp0} -> {sp1}");
+    r.run(8.0);
+    let d = r.view().snapshot.depth_m.unwrap();
+    assert!((d - sp1).abs() < 0.3, "depth {d} vs setpoint {sp1}");
+    r.snapshot("fly_setpoint_step");
+    let field = r
+        .harness
+        .query_all(
+            egui_kittest::kittest::By::new()
+                .label("DEPTH")
+                .role(egui::Role::TextInput),
+        )
+        .next()
+        .unwrap()
+        .rect()
+        .center();
+    r.harness.event(Event::PointerMoved(field));
+    r.press(field, true);
+    r.press(field, false);
+    r.run(FRAME_S);
+    r.harness.event(Event::Text("2.5".into()));
+    r.run(FRAME_S);
+    r.click_nth("Go", 0);
+    assert!((r.view().depth.setpoint.unwrap() - 2.5).abs() < 1e-9);
+
+    // Drag the setpoint on the depth tape: from the centre 60 px down = deeper.
+    r.run(6.0);
+    let before = r.view().depth.setpoint.unwrap();
+    let c = r.harness.get_by_label("depth tape").rect().center();
+    r.press(c, true);
+    for k in 1..=6 {
+        r.harness
+            .event(Event::PointerMoved(c + vec2(0.0, 10.0 * k as f32)));
+        r.run(FRAME_S);
+    }
+    r.press(c + vec2(0.0, 60.0), false);
+    r.run(FRAME_S);
+    let after = r.view().depth.setpoint.unwrap();
+    assert!(after > before + 0.3, "drag set {before} -> {after}");
+
+    // One-action disarm drops the holds.
+    r.click("DISARM");
+    assert!(!r.view().snapshot.armed);
+    assert_eq!(r.view().depth.mode, AxisModeView::Manual);
+}
+
+#[test]
+fn plots_connection_and_alarm_panels() {
+    let mut r = rig("plots.mcap");
+    r.run(2.0);
+    r.arm();
+    r.click_nth("OFF", 1); // heading hold
+    r.click_nth("+10", 0);
+    r.click_nth("OFF", 0); // depth hold
+    r.click_nth("+1", 0);
+    r.run(20.0);
+    r.harness.state_mut().set_tab(Tab::Plots);
+    r.run(FRAME_S);
+    assert!(r.harness.state().live_history().len() > 1000);
+    r.snapshot("plots");
+
+    r.harness.state_mut().set_tab(Tab::Connection);
+    r.run(FRAME_S);
+    r.click("Autodetect (ping)");
+    r.run(FRAME_S);
+    r.snapshot("connection");
+
+    // Link loss: the vehicle goes silent for 3 s; the alarm latches until acknowledged.
+    r.harness.state_mut().set_tab(Tab::Fly);
+    let now = r.st.now_us();
+    r.st.vehicle_mut()
+        .faults_mut()
+        .dead_windows
+        .push((now, now + 3_000_000));
+    r.run(4.0);
+    let v = r.view();
+    assert!(
+        v.alarms.iter().any(|a| a.kind == AlarmKind::LinkLost),
+        "{:?}",
+        v.alarms
+    );
+    assert!(!v.snapshot.armed, "link loss disarms");
+    r.run(2.0);
+    assert_eq!(r.view().link.health, "connected");
+    assert!(
+        !r.view().alarms.is_empty(),
+        "latched after the link came back"
+    );
+    r.snapshot("alarm_latched");
+    r.click("ACK");
+    r.run(FRAME_S);
+    assert!(
+        r.view()
+            .alarms
+            .iter()
+            .all(|a| a.kind != AlarmKind::LinkLost),
+        "{:?}",
+        r.view().alarms
+    );
+}
+
+#[test]
+fn record_then_open_a_replay() {
+    let mut r = rig("replay-source.mcap");
+    r.run(2.0);
+    r.arm();
+    r.click("REC");
+    r.click_nth("OFF", 0);
+    r.click_nth("+1", 0);
+    r.click_nth("OFF", 0); // the heading row's (depth now shows HOLD)
+    r.click_nth("+10", 0);
+    r.run(8.0);
+    assert!(r.view().recording.path.is_some());
+    r.snapshot("fly_recording");
+    r.click("STOP REC");
+    r.run(0.2);
+    let last = r.view().recording.last_file.clone().unwrap();
+    assert!(last.exists());
+
+    // Open it from the Replay tab.
+    r.harness.state_mut().set_tab(Tab::Replay);
+    r.run(FRAME_S);
+    r.click("Open the last recording (replay-source.mcap)");
+    assert!(
+        r.harness.state().replay_view().is_some(),
+        "{:?}",
+        r.harness.state().message()
+    );
+    r.run(FRAME_S);
+    let field = r
+        .harness
+        .query_all(
+            egui_kittest::kittest::By::new()
+                .label("File")
+                .role(egui::Role::TextInput),
+        )
+        .next()
+        .unwrap()
+        .rect();
+    r.snapshot_masked("replay_tab", field);
+    r.click("Play");
+    r.run(1.0);
+    let rv = r.harness.state().replay_view().unwrap().clone();
+    let pos = rv.replay.as_ref().unwrap().position_s;
+    assert!(pos > 0.5, "{pos}");
+    assert!(rv.source.is_replay());
+    r.click("Pause");
+    r.harness.state_mut().set_tab(Tab::Fly);
+    r.run(FRAME_S);
+    r.snapshot("replay_fly");
+    r.click("Step");
+    r.harness.state_mut().set_tab(Tab::Plots);
+    r.run(FRAME_S);
+    r.snapshot("replay_plots");
+    r.click("Back to live");
+    assert!(r.harness.state().replay_view().is_none());
+}
+
+/// A small synthetic measurement CSV: model3 in the simulator with a hidden effect from
+/// the catalog (the vertical thruster 25 mm forward of the CO, so pitch follows vertical
+/// thrust), stepped thrust of both signs, 180 s at 10 Hz.
+fn synthetic_csv(path: &Path) {
+    use rov_dynamics::models::{Model3, load_default_model};
+    use rov_dynamics::thrusters::{ThrustPct, ThrusterGeometry};
+    let base = load_default_model("model3").unwrap();
+    let mut p = *base.as_any().downcast_ref::<Model3>().unwrap().params();
+    let g = p.thrusters.vertical.geometry;
+    let pos = g.position_m();
+    p.thrusters.vertical.geometry =
+        ThrusterGeometry::new(nalgebra::Vector3::new(0.025, pos.y, pos.z), g.direction()).unwrap();
+    let mut cfg = rov_sim::SimConfig::with_model(Box::new(Model3::new(p).unwrap()));
+    cfg.initial = rov_dynamics::InitialConditions::at_rest(3.0, 0.0);
+    let mut sim = rov_sim::Simulator::new(cfg, 7).unwrap();
+    let block: Vec<(f64, ThrustPct)> = vec![
+        (5.0, ThrustPct::new(0.0, 0.0, 0.0)),
+        (8.0, ThrustPct::new(0.0, 0.0, 40.0)),
+        (8.0, ThrustPct::new(0.0, 0.0, -40.0)),
+        (8.0, ThrustPct::new(30.0, -30.0, 0.0)),
+        (8.0, ThrustPct::new(-30.0, 30.0, 0.0)),
+        (8.0, ThrustPct::new(0.0, 0.0, 60.0)),
+        (8.0, ThrustPct::new(40.0, 40.0, -20.0)),
+        (8.0, ThrustPct::new(0.0, 0.0, -60.0)),
+        (8.0, ThrustPct::new(20.0, -20.0, 30.0)),
+        (8.0, ThrustPct::new(0.0, 0.0, 0.0)),
+        (8.0, ThrustPct::new(-20.0, 20.0, -30.0)),
+    ];
+    // Two passes of the block, the second with the commands scaled, so that the held-out
+    // third sees levels the training part also contains.
+    let mut holds = block.clone();
+    holds.extend(block.iter().map(|(d, c)| {
+        (
+            *d,
+            ThrustPct::new(c.port * 0.7, c.starboard * 0.7, c.vertical * 0.7),
+        )
+    }));
+    let schedule = rov_sim::Schedule::from_holds(&holds).unwrap();
+    let sensors = rov_dynamics::sensors::SensorConfig::default();
+    let series = rov_sim::run_schedule_on(&mut sim, &sensors, &schedule, 0.1).unwrap();
+    std::fs::write(path, series.to_csv()).unwrap();
+}
+
+#[test]
+fn lab_tab_runs_a_diagnosis_off_the_gui_thread() {
+    let csv = tmp("lab-synthetic.csv");
+    synthetic_csv(&csv);
+    let mut r = rig("lab.mcap");
+    r.harness.state_mut().set_tab(Tab::Lab);
+    r.run(FRAME_S);
+    let field = data_field(&r).center();
+    r.press(field, true);
+    r.press(field, false);
+    r.run(FRAME_S);
+    r.harness.event(Event::Text(csv.display().to_string()));
+    r.run(FRAME_S);
+    r.click("Load");
+    wait_lab(&mut r, 30.0);
+    assert!(
+        r.harness.state().lab().data.is_some(),
+        "{:?}",
+        r.harness.state().lab().error
+    );
+    r.click("Diagnose");
+    assert!(r.harness.state().lab().is_busy());
+    // The GUI keeps drawing frames while the worker runs.
+    let frames = wait_lab(&mut r, 600.0);
+    assert!(frames > 0);
+    let lab = r.harness.state().lab();
+    assert!(lab.error.is_none(), "{:?}", lab.error);
+    let diag = lab.diagnosis.as_ref().unwrap();
+    assert!(!diag.findings.is_empty());
+    // The hidden effect is named first (the lab itself is tested in rov_lab).
+    assert_eq!(
+        diag.findings[0].effect, "thruster-moment-arm",
+        "{}",
+        diag.summary
+    );
+    assert!(diag.findings[0].significant);
+    assert!(!lab.fall.is_empty());
+    eprintln!("lab: {}", diag.summary);
+    r.snapshot_masked("lab_diagnosis", data_field(&r));
+    // Add the first addable effect; the refit runs in the background too.
+    let n_fall = r.harness.state().lab().fall.len();
+    let enabled = r
+        .harness
+        .query_all(
+            egui_kittest::kittest::By::new()
+                .label("Add effect")
+                .predicate(|n| !n.is_disabled()),
+        )
+        .next()
+        .unwrap()
+        .rect()
+        .center();
+    r.harness.event(Event::PointerMoved(enabled));
+    r.harness.step();
+    r.press(enabled, true);
+    r.press(enabled, false);
+    r.run(FRAME_S);
+    assert!(r.harness.state().lab().is_busy() || r.harness.state().lab().added.len() == 1);
+    wait_lab(&mut r, 600.0);
+    let lab = r.harness.state().lab();
+    assert!(lab.error.is_none(), "{:?}", lab.error);
+    assert_eq!(lab.fall.len(), n_fall + 1);
+    assert_eq!(lab.added.len(), 1);
+    // Adding the moment arm cuts the held-out pitch error (the error-fall chart's data).
+    let (before, after) = (&lab.fall[0].1, &lab.fall[n_fall].1);
+    assert!(
+        after["pitch"] < 0.5 * before["pitch"],
+        "pitch RMSE {} -> {}",
+        before["pitch"],
+        after["pitch"]
+    );
+    r.snapshot_masked("lab_effect_added", data_field(&r));
+}
+
+/// The lab's data path field (masked in snapshots: the path depends on the machine).
+fn data_field(r: &Rig) -> egui::Rect {
+    r.harness
+        .query_all(
+            egui_kittest::kittest::By::new()
+                .label("Data (CSV or MCAP)")
+                .role(egui::Role::TextInput),
+        )
+        .next()
+        .unwrap()
+        .rect()
+}
+
+/// Steps frames until the lab worker is idle; returns the frames drawn meanwhile.
+fn wait_lab(r: &mut Rig, timeout_s: f64) -> usize {
+    let t0 = Instant::now();
+    let mut frames = 0;
+    while r.harness.state().lab().is_busy() {
+        assert!(
+            t0.elapsed().as_secs_f64() < timeout_s,
+            "lab worker timed out"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+        r.harness.step();
+        frames += 1;
+    }
+    r.run(FRAME_S);
+    frames
+}

@@ -1,0 +1,326 @@
+//! "Where it fails": residuals binned by thruster, command sign and level, by segment
+//! type and by state; residual autocorrelation and cross-correlation with each input
+//! (with confidence bounds); the worst windows with their time ranges.
+//!
+//! Confidence bounds: autocorrelation ±z/√N (99 %, z = 2.58). For the cross-correlation
+//! of a coloured residual with a coloured input the variance of the estimate is
+//! Σ_k ρ_e(k) ρ_u(k) / N (Bartlett), so the bound is z·sqrt(1 + 2 Σ_{k≥1} ρ_e(k) ρ_u(k))/√N
+//! (truncated at the lag range); a positive-lag peak means input dynamics the model lacks.
+
+use rov_dynamics::models::Channel;
+use serde::Serialize;
+
+use crate::data::{Run, SegmentKind, ch_name};
+use crate::metrics::{ChannelMetrics, channel_metrics_range, residuals, windows};
+use crate::sim::Prediction;
+
+/// 99 % normal quantile.
+pub const Z99: f64 = 2.576;
+
+/// Mean residual in one bin with its 95 % interval.
+#[derive(Debug, Clone, Serialize)]
+pub struct Bin {
+    /// Bin label, e.g. "vertical -60 %".
+    pub label: String,
+    /// Samples.
+    pub n: usize,
+    /// Mean residual (model − measured).
+    pub mean: f64,
+    /// Half-width of the 95 % interval (white-noise approximation within the bin).
+    pub ci95: f64,
+    /// RMS residual.
+    pub rms: f64,
+}
+
+/// Correlation function with its bound.
+#[derive(Debug, Clone, Serialize)]
+pub struct Correlation {
+    /// What is correlated ("residual" or an input name).
+    pub with: String,
+    /// Lags in samples (−L..=L for cross-correlation, 0..=L for autocorrelation).
+    pub lags: Vec<i64>,
+    /// Normalised correlation per lag.
+    pub values: Vec<f64>,
+    /// 99 % insignificance bound.
+    pub bound: f64,
+    /// Lags outside the bound.
+    pub significant_lags: Vec<i64>,
+}
+
+/// A window with its metrics.
+#[derive(Debug, Clone, Serialize)]
+pub struct WorstWindow {
+    /// Run.
+    pub run: String,
+    /// Start, s.
+    pub t_start_s: f64,
+    /// End, s.
+    pub t_end_s: f64,
+    /// RMSE in the window.
+    pub rmse: f64,
+    /// Bias in the window.
+    pub bias: f64,
+}
+
+/// Failure views of one channel.
+#[derive(Debug, Clone, Serialize)]
+pub struct ChannelFailure {
+    /// Channel.
+    pub channel: String,
+    /// Bins by thruster, sign and level (e.g. "vertical +90 %").
+    pub by_command: Vec<Bin>,
+    /// Bins by segment type.
+    pub by_segment: Vec<Bin>,
+    /// Bins by state (depth, heading sector, pitch and roll sign).
+    pub by_state: Vec<Bin>,
+    /// Residual autocorrelation.
+    pub autocorrelation: Correlation,
+    /// Cross-correlation with each thruster command.
+    pub cross_correlation: Vec<Correlation>,
+    /// Worst 10 s windows.
+    pub worst_windows: Vec<WorstWindow>,
+    /// Whiteness: fraction of autocorrelation lags (1..L) outside the bound.
+    pub autocorrelation_outside: f64,
+}
+
+fn bin_of(label: String, vals: &[f64]) -> Option<Bin> {
+    let v: Vec<f64> = vals.iter().copied().filter(|x| x.is_finite()).collect();
+    if v.is_empty() {
+        return None;
+    }
+    let n = v.len() as f64;
+    let mean = v.iter().sum::<f64>() / n;
+    let var = v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0).max(1.0);
+    Some(Bin {
+        label,
+        n: v.len(),
+        mean,
+        ci95: 1.96 * (var / n).sqrt(),
+        rms: (v.iter().map(|x| x * x).sum::<f64>() / n).sqrt(),
+    })
+}
+
+fn corr(a: &[f64], b: &[f64], lag: i64) -> f64 {
+    let n = a.len().min(b.len()) as i64;
+    let (mut s, mut c) = (0.0, 0usize);
+    for k in 0..n {
+        let j = k - lag;
+        if j < 0 || j >= n {
+            continue;
+        }
+        let (x, y) = (a[k as usize], b[j as usize]);
+        if x.is_finite() && y.is_finite() {
+            s += x * y;
+            c += 1;
+        }
+    }
+    if c == 0 { 0.0 } else { s / n as f64 }
+}
+
+fn normalised(v: &[f64]) -> Vec<f64> {
+    let f: Vec<f64> = v.iter().copied().filter(|x| x.is_finite()).collect();
+    if f.is_empty() {
+        return v.to_vec();
+    }
+    let mean = f.iter().sum::<f64>() / f.len() as f64;
+    let sd = (f.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / f.len() as f64)
+        .sqrt()
+        .max(1e-300);
+    v.iter().map(|x| (x - mean) / sd).collect()
+}
+
+/// Autocorrelation of a residual up to `max_lag`.
+pub fn autocorrelation(e: &[f64], max_lag: usize) -> Correlation {
+    let z = normalised(e);
+    let n = z.iter().filter(|x| x.is_finite()).count().max(1) as f64;
+    let lags: Vec<i64> = (0..=max_lag as i64).collect();
+    let values: Vec<f64> = lags.iter().map(|l| corr(&z, &z, *l)).collect();
+    let bound = Z99 / n.sqrt();
+    let significant_lags = lags
+        .iter()
+        .zip(&values)
+        .filter(|(l, v)| **l > 0 && v.abs() > bound)
+        .map(|(l, _)| *l)
+        .collect();
+    Correlation {
+        with: "residual".into(),
+        lags,
+        values,
+        bound,
+        significant_lags,
+    }
+}
+
+/// Cross-correlation of residual and input, lags −L..=L (positive: input leads).
+pub fn cross_correlation(e: &[f64], u: &[f64], max_lag: usize, name: &str) -> Correlation {
+    let ze = normalised(e);
+    let zu = normalised(u);
+    let n = ze.iter().filter(|x| x.is_finite()).count().max(1) as f64;
+    let l = max_lag as i64;
+    let lags: Vec<i64> = (-l..=l).collect();
+    let values: Vec<f64> = lags.iter().map(|k| corr(&ze, &zu, *k)).collect();
+    // Bartlett variance for coloured signals.
+    let mut s = 1.0;
+    for k in 1..=l {
+        s += 2.0 * corr(&ze, &ze, k) * corr(&zu, &zu, k);
+    }
+    let bound = Z99 * s.max(1.0).sqrt() / n.sqrt();
+    let significant_lags = lags
+        .iter()
+        .zip(&values)
+        .filter(|(_, v)| v.abs() > bound)
+        .map(|(l, _)| *l)
+        .collect();
+    Correlation {
+        with: name.into(),
+        lags,
+        values,
+        bound,
+        significant_lags,
+    }
+}
+
+/// Failure views of one channel over runs (residuals from `preds`, same order).
+pub fn channel_failure(runs: &[Run], preds: &[Prediction], ch: Channel) -> Option<ChannelFailure> {
+    let mut by_cmd: std::collections::BTreeMap<String, Vec<f64>> = Default::default();
+    let mut by_seg: std::collections::BTreeMap<String, Vec<f64>> = Default::default();
+    let mut by_state: std::collections::BTreeMap<String, Vec<f64>> = Default::default();
+    let mut all_e: Vec<f64> = Vec::new();
+    let mut inputs: [Vec<f64>; 3] = Default::default();
+    let mut worst: Vec<WorstWindow> = Vec::new();
+    let dt = runs.first().map_or(0.05, |r| r.median_dt());
+    for (run, pred) in runs.iter().zip(preds) {
+        let Some(e) = residuals(run, pred, ch) else {
+            continue;
+        };
+        for seg in &run.segments {
+            let slice = &e[seg.start..seg.end];
+            by_seg
+                .entry(seg.kind.name().to_string())
+                .or_default()
+                .extend_from_slice(slice);
+            let c = seg.cmd;
+            for (name, u) in [
+                ("port", c.port),
+                ("starboard", c.starboard),
+                ("vertical", c.vertical),
+            ] {
+                if u.abs() >= 0.5 {
+                    let lvl = (u / 15.0).round() * 15.0;
+                    by_cmd
+                        .entry(format!("{name} {lvl:+.0} %"))
+                        .or_default()
+                        .extend_from_slice(slice);
+                }
+            }
+            if seg.kind == SegmentKind::Rest {
+                by_cmd
+                    .entry("all off".into())
+                    .or_default()
+                    .extend_from_slice(slice);
+            }
+        }
+        let y = |c: Channel| run.channel(c);
+        for k in 0..run.len() {
+            if let Some(d) = y(Channel::Depth) {
+                let b = (d[k] / 2.0).floor() * 2.0;
+                if b.is_finite() {
+                    by_state
+                        .entry(format!("depth {b:.0}..{:.0} m", b + 2.0))
+                        .or_default()
+                        .push(e[k]);
+                }
+            }
+            if let Some(h) = y(Channel::Heading) {
+                let sector = ((h[k].rem_euclid(360.0)) / 45.0).floor() * 45.0;
+                if sector.is_finite() {
+                    by_state
+                        .entry(format!("heading {sector:03.0}..{:03.0}°", sector + 45.0))
+                        .or_default()
+                        .push(e[k]);
+                }
+            }
+            for (c, name) in [(Channel::Pitch, "pitch"), (Channel::Roll, "roll")] {
+                if let Some(v) = y(c) {
+                    let lab = if v[k] > 2.0 {
+                        format!("{name} > +2°")
+                    } else if v[k] < -2.0 {
+                        format!("{name} < −2°")
+                    } else {
+                        format!("{name} level")
+                    };
+                    if v[k].is_finite() {
+                        by_state.entry(lab).or_default().push(e[k]);
+                    }
+                }
+            }
+        }
+        all_e.extend_from_slice(&e);
+        for (i, u) in inputs.iter_mut().enumerate() {
+            u.extend(run.cmd.iter().map(|c| match i {
+                0 => c.port,
+                1 => c.starboard,
+                _ => c.vertical,
+            }));
+        }
+        for w in windows(run, 10.0) {
+            if let Some(m) = channel_metrics_range(run, pred, ch, w.clone()) {
+                worst.push(WorstWindow {
+                    run: run.name.clone(),
+                    t_start_s: run.t[w.start],
+                    t_end_s: run.t[w.end - 1],
+                    rmse: m.rmse,
+                    bias: m.bias,
+                });
+            }
+        }
+    }
+    if all_e.is_empty() {
+        return None;
+    }
+    worst.sort_by(|a, b| b.rmse.total_cmp(&a.rmse));
+    worst.truncate(5);
+    let max_lag = ((5.0 / dt).round() as usize).clamp(5, 100);
+    let autocorrelation = autocorrelation(&all_e, max_lag);
+    let outside = autocorrelation.significant_lags.len() as f64 / max_lag as f64;
+    let cross = ["port", "starboard", "vertical"]
+        .iter()
+        .enumerate()
+        .map(|(i, n)| cross_correlation(&all_e, &inputs[i], max_lag, n))
+        .collect();
+    let to_bins = |m: std::collections::BTreeMap<String, Vec<f64>>| -> Vec<Bin> {
+        m.into_iter().filter_map(|(k, v)| bin_of(k, &v)).collect()
+    };
+    Some(ChannelFailure {
+        channel: ch_name(ch).to_string(),
+        by_command: to_bins(by_cmd),
+        by_segment: to_bins(by_seg),
+        by_state: to_bins(by_state),
+        autocorrelation,
+        cross_correlation: cross,
+        worst_windows: worst,
+        autocorrelation_outside: outside,
+    })
+}
+
+/// Metrics per segment of a run (segments of at least 2 s).
+pub fn segment_metrics(
+    run: &Run,
+    pred: &Prediction,
+    ch: Channel,
+) -> Vec<(String, f64, f64, ChannelMetrics)> {
+    run.segments
+        .iter()
+        .filter(|s| s.t_end_s - s.t_start_s >= 2.0)
+        .filter_map(|s| {
+            channel_metrics_range(run, pred, ch, s.start..s.end).map(|m| {
+                (
+                    format!("{} {:.0} %", s.kind.name(), s.level_pct),
+                    s.t_start_s,
+                    s.t_end_s,
+                    m,
+                )
+            })
+        })
+        .collect()
+}

@@ -1,0 +1,126 @@
+//! Converter for the real BlueROV2 tank data in `shared/real_data/bluerov2_saabmarine_mex/`
+//! (pilot demands plus motion-capture pose and body velocities, about 10 Hz) to the
+//! measurement CSV, so the lab can run on real data.
+//!
+//! The data set ships without a description; its conventions were read off the data:
+//! z, w and the heave demand increase together (z up, heave demand positive = ascend), and
+//! the yaw demand drives r with the same sign. The pose is therefore taken as a z-up
+//! (ENU/FLU) frame and converted to the CSV's NED/FRD conventions:
+//!
+//! * depth = −z (m, down); north = x, east = −y;
+//! * heading = −yaw, pitch = −pitch (nose up positive), roll = roll (degrees);
+//! * body rates p, −q, −r and velocities u, −v, −w (deg/s, m/s).
+//!
+//! Inputs (not a Pro 4: a BlueROV2 Heavy has eight thrusters driven through a mixer):
+//! the normalised surge demand s, yaw demand y and heave demand h (each −1..1) map to the
+//! Pro 4's differential pair and vertical thruster as
+//!
+//! * port = 100·(s − y), starboard = 100·(s + y) (a positive yaw demand turns to port,
+//!   counter-clockwise seen from above; on the Pro 4 the starboard thruster pushing harder
+//!   does that), clamped to ±100 %;
+//! * vertical = −100·h (the Pro 4's vertical command pushes down).
+//!
+//! The pitch, roll and sway demands have no Pro 4 counterpart and are dropped (runs that
+//! use them show as model failures). A row whose demands are missing keeps the previous
+//! command; rows whose time does not increase are skipped.
+
+use rov_types::measurement::{MeasurementRow, MeasurementSeries, OptionalChannel};
+
+use crate::LabError;
+
+fn err(label: &str, detail: String) -> LabError {
+    LabError::Data {
+        run: label.into(),
+        detail,
+    }
+}
+
+/// Converts one BlueROV2 CSV (text) to a measurement series.
+pub fn bluerov_to_series(text: &str, label: &str) -> Result<MeasurementSeries, LabError> {
+    let mut lines = text.lines().filter(|l| !l.trim().is_empty());
+    let header: Vec<&str> = lines
+        .next()
+        .ok_or_else(|| err(label, "empty file".into()))?
+        .split(',')
+        .map(str::trim)
+        .collect();
+    let col = |name: &str| -> Result<usize, LabError> {
+        header
+            .iter()
+            .position(|h| *h == name)
+            .ok_or_else(|| err(label, format!("column {name} is missing")))
+    };
+    let idx = [
+        col("t")?,
+        col("x")?,
+        col("y")?,
+        col("z")?,
+        col("roll")?,
+        col("pitch")?,
+        col("yaw")?,
+        col("u")?,
+        col("v")?,
+        col("w")?,
+        col("p")?,
+        col("q")?,
+        col("r")?,
+        col("ch3_heave")?,
+        col("ch4_yaw")?,
+        col("ch5_surge")?,
+    ];
+    let mut series = MeasurementSeries {
+        present: [true; 8],
+        ..Default::default()
+    };
+    let mut prev_cmd = (0.0, 0.0, 0.0);
+    let mut last_t = f64::NEG_INFINITY;
+    for line in lines {
+        let cells: Vec<&str> = line.split(',').map(str::trim).collect();
+        let get = |i: usize| -> f64 {
+            cells
+                .get(i)
+                .and_then(|c| c.parse::<f64>().ok())
+                .unwrap_or(f64::NAN)
+        };
+        let v: Vec<f64> = idx.iter().map(|i| get(*i)).collect();
+        let t = v[0];
+        if !t.is_finite() || t <= last_t {
+            continue;
+        }
+        last_t = t;
+        let (h, y, s) = (v[13], v[14], v[15]);
+        if h.is_finite() && y.is_finite() && s.is_finite() {
+            prev_cmd = (h, y, s);
+        }
+        let (h, y, s) = prev_cmd;
+        let clamp = |x: f64| (x * 100.0).clamp(-100.0, 100.0);
+        let mut row = MeasurementRow {
+            time_s: t,
+            port_pct: clamp(s - y),
+            starboard_pct: clamp(s + y),
+            vertical_pct: clamp(-h),
+            depth_m: -v[3],
+            heading_deg: -v[6].to_degrees(),
+            pitch_deg: -v[5].to_degrees(),
+            roll_deg: v[4].to_degrees(),
+            optional: [None; 8],
+        };
+        let opt = |x: f64| x.is_finite().then_some(x);
+        row.set(OptionalChannel::NorthM, opt(v[1]));
+        row.set(OptionalChannel::EastM, opt(-v[2]));
+        row.set(OptionalChannel::SurgeMps, opt(v[7]));
+        row.set(OptionalChannel::SwayMps, opt(-v[8]));
+        row.set(OptionalChannel::HeaveMps, opt(-v[9]));
+        row.set(OptionalChannel::RollRateDps, opt(v[10].to_degrees()));
+        row.set(OptionalChannel::PitchRateDps, opt(-v[11].to_degrees()));
+        row.set(OptionalChannel::YawRateDps, opt(-v[12].to_degrees()));
+        series.rows.push(row);
+    }
+    if series.rows.len() < 10 {
+        return Err(err(
+            label,
+            format!("only {} usable rows", series.rows.len()),
+        ));
+    }
+    Ok(series)
+}

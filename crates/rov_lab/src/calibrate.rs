@@ -1,0 +1,386 @@
+//! Calibration: bounded Levenberg–Marquardt on the simulation error over several runs,
+//! with parameter uncertainty.
+//!
+//! The objective stacks, over all runs and compared channels, the residuals e = ŷ − y of
+//! a multiple-shooting simulation (re-initialised at manoeuvre-segment starts at least
+//! [`SHOOTING_WINDOW_S`] apart), each divided by the channel's noise floor. Missing
+//! samples contribute zero, so the residual vector keeps its length.
+//!
+//! Free base parameters ([`BaseKind::calibration_params`]): thrust scales (linear and
+//! quadratic part of each thruster's map), heave and yaw damping (linear, quadratic),
+//! and for model3 roll/pitch linear damping and the CG height (restoring stiffness).
+//! Mass, inertia and added masses stay fixed: with motion data, thrust gain, damping and
+//! inertia are determined only up to a common scale.
+
+use rov_dynamics::models::Channel;
+use serde::Serialize;
+
+use crate::LabError;
+use crate::data::{Run, ch_index};
+use crate::lm::{Bound, LmOptions, LmResult, minimize_with};
+use crate::model::LabModel;
+use crate::params::{Axis, Param, Thr};
+use crate::sim::{compared_channels, simulate_run};
+
+/// Shortest multiple-shooting window, s.
+pub const SHOOTING_WINDOW_S: f64 = 20.0;
+
+/// Which error view an objective uses.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum View {
+    /// One initialisation at the start.
+    FreeRun,
+    /// Re-initialised at segment starts at least this many seconds apart.
+    Shooting(f64),
+    /// Re-initialised every k samples.
+    KStep(usize),
+}
+
+impl View {
+    /// Reset indices for a run.
+    pub fn resets(self, run: &Run) -> Vec<usize> {
+        match self {
+            View::FreeRun => vec![0],
+            View::Shooting(w) => run.shooting_starts(w),
+            View::KStep(k) => run.every_k(k),
+        }
+    }
+}
+
+/// A stacked, noise-normalised simulation-error objective over runs.
+#[derive(Debug, Clone)]
+pub struct Objective<'a> {
+    /// The runs.
+    pub runs: &'a [Run],
+    /// Reset indices per run.
+    pub resets: Vec<Vec<usize>>,
+    /// Channels used.
+    pub channels: Vec<Channel>,
+    /// Per run, per channel (index as `Channel::ALL`) weight 1/σ.
+    pub weights: Vec<[f64; 12]>,
+}
+
+impl<'a> Objective<'a> {
+    /// Builds the objective for a model's predicted channels.
+    pub fn new(model: &LabModel, runs: &'a [Run], view: View) -> Self {
+        let mut channels: Vec<Channel> = Vec::new();
+        for run in runs {
+            for c in compared_channels(model, run) {
+                if !channels.contains(&c) {
+                    channels.push(c);
+                }
+            }
+        }
+        let weights = runs
+            .iter()
+            .map(|r| {
+                let mut w = [0.0; 12];
+                for c in &channels {
+                    let i = ch_index(*c);
+                    if r.noise[i] > 0.0 {
+                        w[i] = 1.0 / r.noise[i];
+                    }
+                }
+                w
+            })
+            .collect();
+        Self {
+            runs,
+            resets: runs.iter().map(|r| view.resets(r)).collect(),
+            channels,
+            weights,
+        }
+    }
+
+    /// Number of residuals.
+    pub fn len(&self) -> usize {
+        self.runs.iter().map(|r| r.len()).sum::<usize>() * self.channels.len()
+    }
+
+    /// Whether there are no residuals.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// The stacked weighted residuals of a model.
+    pub fn residuals(&self, model: &LabModel) -> Result<Vec<f64>, LabError> {
+        let mut out = Vec::with_capacity(self.len());
+        for (ri, run) in self.runs.iter().enumerate() {
+            let pred = simulate_run(model, run, &self.resets[ri])?;
+            for ch in &self.channels {
+                let i = ch_index(*ch);
+                let w = self.weights[ri][i];
+                match (run.channel(*ch), pred.channel(*ch)) {
+                    (Some(y), Some(p)) => {
+                        out.extend(y.iter().zip(p).map(|(a, b)| {
+                            let e = crate::metrics::residual(*ch, *a, *b) * w;
+                            if e.is_finite() { e } else { 0.0 }
+                        }));
+                    }
+                    _ => out.extend(std::iter::repeat_n(0.0, run.len())),
+                }
+            }
+        }
+        Ok(out)
+    }
+
+    /// Sum of squared weighted residuals per channel (index as `self.channels`).
+    pub fn channel_costs(&self, r: &[f64]) -> Vec<f64> {
+        let mut costs = vec![0.0; self.channels.len()];
+        let mut off = 0;
+        for run in self.runs {
+            for c in costs.iter_mut() {
+                *c += r[off..off + run.len()].iter().map(|x| x * x).sum::<f64>();
+                off += run.len();
+            }
+        }
+        costs
+    }
+}
+
+/// Effective sample size of a residual vector split into blocks of `block` samples:
+/// N·(1 − ρ₁)/(1 + ρ₁) with the pooled lag-1 autocorrelation (at least 1 % of N).
+pub fn effective_n(r: &[f64], block: usize) -> f64 {
+    let n = r.len() as f64;
+    let (mut c0, mut c1) = (0.0, 0.0);
+    for chunk in r.chunks(block.max(2)) {
+        for w in chunk.windows(2) {
+            c1 += w[0] * w[1];
+        }
+        c0 += chunk.iter().map(|x| x * x).sum::<f64>();
+    }
+    if c0 <= 0.0 {
+        return n;
+    }
+    let rho = (c1 / c0).clamp(0.0, 0.999);
+    (n * (1.0 - rho) / (1.0 + rho)).max(0.01 * n).max(1.0)
+}
+
+/// A fitted parameter with its uncertainty.
+#[derive(Debug, Clone, Serialize)]
+pub struct FittedParam {
+    /// Key.
+    pub key: String,
+    /// Value (display units).
+    pub value: f64,
+    /// Standard deviation (display units), N/N_eff-inflated.
+    pub std: f64,
+    /// Display unit.
+    pub unit: String,
+    /// Whether the value sits at a bound.
+    pub at_bound: bool,
+    /// Value before the fit (display units).
+    pub initial: f64,
+}
+
+/// Result of a calibration.
+#[derive(Debug, Clone)]
+pub struct Calibration {
+    /// The calibrated model.
+    pub model: LabModel,
+    /// Free parameters.
+    pub params: Vec<Param>,
+    /// Their fitted values and uncertainties.
+    pub fitted: Vec<FittedParam>,
+    /// Weighted cost before and after.
+    pub cost0: f64,
+    /// Weighted cost after.
+    pub cost: f64,
+    /// Residual count.
+    pub n_res: usize,
+    /// Effective residual count.
+    pub n_eff: f64,
+    /// The LM result (Jacobian for screening).
+    pub lm: LmResult,
+}
+
+/// Whether a parameter can be excited by the data (thruster used, channel measured).
+pub fn excited(model: &LabModel, runs: &[Run], p: Param) -> bool {
+    let used = |t: Thr| {
+        runs.iter().any(|r| {
+            r.cmd.iter().any(|c| {
+                let v = match t {
+                    Thr::Port => c.port,
+                    Thr::Starboard => c.starboard,
+                    Thr::Vertical => c.vertical,
+                };
+                v.abs() >= 5.0
+            })
+        })
+    };
+    let has = |ch: Channel| runs.iter().any(|r| r.has(ch)) && model.predicts_channel(ch);
+    let heading_or_rate = has(Channel::Heading) || has(Channel::YawRate);
+    match p {
+        Param::ThrustLin(t) | Param::ThrustQuad(t) => {
+            used(t)
+                && match t {
+                    Thr::Vertical => has(Channel::Depth) || has(Channel::Heave),
+                    _ => heading_or_rate || has(Channel::Surge) || has(Channel::North),
+                }
+        }
+        Param::DragLin(a) | Param::DragQuad(a) => match a {
+            Axis::Heave => has(Channel::Depth) || has(Channel::Heave),
+            Axis::Yaw => heading_or_rate,
+            Axis::Roll => has(Channel::Roll) || has(Channel::RollRate),
+            Axis::Pitch => has(Channel::Pitch) || has(Channel::PitchRate),
+            Axis::Surge => has(Channel::Surge) || has(Channel::North) || has(Channel::East),
+            Axis::Sway => has(Channel::Sway),
+        },
+        Param::CgZ => has(Channel::Pitch) || has(Channel::Roll),
+        Param::AddedMass(Axis::Sway) => {
+            (has(Channel::Roll) || has(Channel::Heading)) && model.kind() == crate::BaseKind::Model3
+        }
+        Param::AddedMass(Axis::Roll) => has(Channel::Roll),
+        Param::AddedMass(Axis::Pitch) => has(Channel::Pitch),
+        _ => true,
+    }
+}
+
+/// Bounds with a weak prior at the current value (keeps unexcited directions put).
+pub fn bounds_for(model: &LabModel, params: &[Param], prior_at_current: bool) -> Vec<Bound> {
+    params
+        .iter()
+        .map(|p| {
+            let m = p.meta();
+            let v = model.get(*p).or_else(|| p.off_value()).unwrap_or(0.0);
+            let prior = prior_at_current.then(|| (v, (v.abs() * 2.0).max(m.scale * 20.0)));
+            Bound {
+                lo: m.lo,
+                hi: m.hi,
+                scale: m.scale,
+                prior,
+            }
+        })
+        .collect()
+}
+
+/// Fits `free` parameters of `model` on `runs` with the given view.
+pub fn fit(
+    model: &LabModel,
+    runs: &[Run],
+    free: &[Param],
+    view: View,
+    x0: Option<&[f64]>,
+    bounds: Option<Vec<Bound>>,
+    opts: &LmOptions,
+) -> Result<Calibration, LabError> {
+    fit_with(model, runs, free, view, x0, bounds, opts, None)
+}
+
+/// [`fit`] with a starting Jacobian (Broyden updates afterwards, see
+/// [`crate::lm::minimize_with`]).
+#[allow(clippy::too_many_arguments)]
+pub fn fit_with(
+    model: &LabModel,
+    runs: &[Run],
+    free: &[Param],
+    view: View,
+    x0: Option<&[f64]>,
+    bounds: Option<Vec<Bound>>,
+    opts: &LmOptions,
+    j0: Option<nalgebra::DMatrix<f64>>,
+) -> Result<Calibration, LabError> {
+    let obj = Objective::new(model, runs, view);
+    if obj.is_empty() {
+        return Err(LabError::Data {
+            run: runs
+                .first()
+                .map(|r| r.name.clone())
+                .unwrap_or_else(|| "(no runs)".into()),
+            detail: format!(
+                "no channel is both measured and predicted by {}",
+                model.kind().name()
+            ),
+        });
+    }
+    let bounds = bounds.unwrap_or_else(|| bounds_for(model, free, true));
+    let start = x0.map(|v| v.to_vec()).unwrap_or_else(|| model.values(free));
+    let f = |x: &[f64]| -> Option<Vec<f64>> {
+        let m = model.with(free, x).ok()?;
+        obj.residuals(&m).ok()
+    };
+    let lm = minimize_with(&f, &start, &bounds, opts, j0).ok_or_else(|| LabError::Model {
+        detail: format!(
+            "{} cannot be simulated on the data from its starting parameters",
+            model.kind().name()
+        ),
+    })?;
+    let fitted_model = model.with(free, &lm.x)?;
+    let n_eff = effective_n(&lm.residuals, runs.first().map_or(1, |r| r.len()));
+    let inflation = lm.n_res as f64 / n_eff.max(1.0);
+    let std = lm.std_devs(inflation);
+    let fitted = free
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            let (v, unit) = p.display(lm.x[i]);
+            let (s, _) = p.display(std[i]);
+            let (v0, _) = p.display(start[i]);
+            let b = &bounds[i];
+            FittedParam {
+                key: p.key(),
+                value: v,
+                std: s.abs(),
+                unit: unit.to_string(),
+                at_bound: (lm.x[i] - b.lo).abs() < 1e-9 * b.scale.max(1e-12)
+                    || (lm.x[i] - b.hi).abs() < 1e-9 * b.scale.max(1e-12),
+                initial: v0,
+            }
+        })
+        .collect();
+    Ok(Calibration {
+        model: fitted_model,
+        params: free.to_vec(),
+        fitted,
+        cost0: lm.cost0,
+        cost: lm.cost,
+        n_res: lm.n_res,
+        n_eff,
+        lm,
+    })
+}
+
+/// Calibrates a model's base parameters (those the data excites): first on a short
+/// horizon (re-initialised every [`SHORT_HORIZON_S`], where heading errors stay far from
+/// ±180° even for a badly tuned start), then on multiple-shooting windows.
+pub fn calibrate(
+    model: &LabModel,
+    runs: &[Run],
+    opts: &LmOptions,
+) -> Result<Calibration, LabError> {
+    let free: Vec<Param> = model
+        .kind()
+        .calibration_params()
+        .into_iter()
+        .filter(|p| excited(model, runs, *p))
+        .collect();
+    staged_fit(model, runs, &free, opts)
+}
+
+/// Short prediction horizon of the first calibration stage, s.
+pub const SHORT_HORIZON_S: f64 = 2.0;
+
+/// The two-stage fit of [`calibrate`] for any free set.
+pub fn staged_fit(
+    model: &LabModel,
+    runs: &[Run],
+    free: &[Param],
+    opts: &LmOptions,
+) -> Result<Calibration, LabError> {
+    let dt = runs.first().map_or(0.05, |r| r.median_dt()).max(1e-3);
+    let k = (SHORT_HORIZON_S / dt).round().max(2.0) as usize;
+    let first = fit(model, runs, free, View::KStep(k), None, None, opts)?;
+    let second = LmOptions {
+        max_iter: (opts.max_iter / 2).max(3),
+        ..*opts
+    };
+    fit(
+        &first.model,
+        runs,
+        free,
+        View::Shooting(SHOOTING_WINDOW_S),
+        None,
+        Some(bounds_for(model, free, true)),
+        &second,
+    )
+}

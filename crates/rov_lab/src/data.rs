@@ -1,0 +1,613 @@
+//! Measured runs prepared for the lab: commands, channels (heading unwrapped), noise
+//! floors, smoothed values for re-initialisation, and manoeuvre segments.
+//!
+//! Timing (measurement CSV rule): row k's measurement is taken at t_k *before* row k's
+//! command acts; the command is held from t_k to t_{k+1}. So the sample at t_k responds
+//! to commands 0..k−1 only; [`crate::sim`] follows exactly this.
+
+use rov_dynamics::models::Channel;
+use rov_dynamics::thrusters::ThrustPct;
+use rov_types::measurement::{MeasurementSeries, OptionalChannel};
+use serde::Serialize;
+
+use crate::LabError;
+
+/// Number of channels ([`Channel::ALL`]).
+pub const N_CHANNELS: usize = 12;
+
+/// Index of a channel in [`Channel::ALL`].
+pub fn ch_index(ch: Channel) -> usize {
+    match ch {
+        Channel::Depth => 0,
+        Channel::Heading => 1,
+        Channel::Pitch => 2,
+        Channel::Roll => 3,
+        Channel::Surge => 4,
+        Channel::Sway => 5,
+        Channel::Heave => 6,
+        Channel::RollRate => 7,
+        Channel::PitchRate => 8,
+        Channel::YawRate => 9,
+        Channel::North => 10,
+        Channel::East => 11,
+    }
+}
+
+/// Lower-case channel name used in reports ("depth", "heading", "yaw_rate" …).
+pub fn ch_name(ch: Channel) -> &'static str {
+    match ch {
+        Channel::Depth => "depth",
+        Channel::Heading => "heading",
+        Channel::Pitch => "pitch",
+        Channel::Roll => "roll",
+        Channel::Surge => "surge",
+        Channel::Sway => "sway",
+        Channel::Heave => "heave",
+        Channel::RollRate => "roll_rate",
+        Channel::PitchRate => "pitch_rate",
+        Channel::YawRate => "yaw_rate",
+        Channel::North => "north",
+        Channel::East => "east",
+    }
+}
+
+/// Unit of a channel in reports.
+pub fn ch_unit(ch: Channel) -> &'static str {
+    match ch {
+        Channel::Depth | Channel::North | Channel::East => "m",
+        Channel::Heading | Channel::Pitch | Channel::Roll => "deg",
+        Channel::Surge | Channel::Sway | Channel::Heave => "m/s",
+        Channel::RollRate | Channel::PitchRate | Channel::YawRate => "deg/s",
+    }
+}
+
+/// Whether residuals of a channel are angles to wrap to ±180°.
+pub fn ch_wraps(ch: Channel) -> bool {
+    ch == Channel::Heading
+}
+
+/// Lowest noise floor assumed for a channel (quantisation and numerics).
+fn noise_floor_min(ch: Channel) -> f64 {
+    match ch {
+        Channel::Depth => 0.002,
+        Channel::Heading | Channel::Pitch | Channel::Roll => 0.03,
+        Channel::RollRate | Channel::PitchRate | Channel::YawRate => 0.05,
+        Channel::Surge | Channel::Sway | Channel::Heave => 0.002,
+        Channel::North | Channel::East => 0.005,
+    }
+}
+
+/// Wraps an angle difference to (−180, 180] degrees.
+#[inline]
+pub fn wrap180(x: f64) -> f64 {
+    let y = (x + 180.0).rem_euclid(360.0) - 180.0;
+    if y == -180.0 { 180.0 } else { y }
+}
+
+/// Kind of manoeuvre segment.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SegmentKind {
+    /// All thrusters off.
+    Rest,
+    /// Port thruster alone.
+    Port,
+    /// Starboard thruster alone.
+    Starboard,
+    /// Vertical thruster alone.
+    Vertical,
+    /// Port and starboard with the same sign.
+    Surge,
+    /// Port and starboard with opposite signs.
+    Yaw,
+    /// Surge with vertical.
+    SurgeHeave,
+    /// Yaw with vertical.
+    YawHeave,
+    /// Anything else.
+    Combined,
+}
+
+impl SegmentKind {
+    /// Name used in reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            SegmentKind::Rest => "rest",
+            SegmentKind::Port => "port",
+            SegmentKind::Starboard => "starboard",
+            SegmentKind::Vertical => "vertical",
+            SegmentKind::Surge => "surge",
+            SegmentKind::Yaw => "yaw",
+            SegmentKind::SurgeHeave => "surge+heave",
+            SegmentKind::YawHeave => "yaw+heave",
+            SegmentKind::Combined => "combined",
+        }
+    }
+
+    /// Classifies a command.
+    pub fn of(cmd: &ThrustPct) -> Self {
+        let on = |x: f64| x.abs() >= 0.5;
+        let (p, s, v) = (on(cmd.port), on(cmd.starboard), on(cmd.vertical));
+        match (p, s, v) {
+            (false, false, false) => SegmentKind::Rest,
+            (true, false, false) => SegmentKind::Port,
+            (false, true, false) => SegmentKind::Starboard,
+            (false, false, true) => SegmentKind::Vertical,
+            (true, true, heave) => {
+                let same = cmd.port.signum() == cmd.starboard.signum();
+                match (same, heave) {
+                    (true, false) => SegmentKind::Surge,
+                    (false, false) => SegmentKind::Yaw,
+                    (true, true) => SegmentKind::SurgeHeave,
+                    (false, true) => SegmentKind::YawHeave,
+                }
+            }
+            _ => SegmentKind::Combined,
+        }
+    }
+}
+
+/// A stretch of constant command.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Segment {
+    /// First sample.
+    pub start: usize,
+    /// One past the last sample.
+    pub end: usize,
+    /// Start time, s.
+    pub t_start_s: f64,
+    /// End time (time of the last sample), s.
+    pub t_end_s: f64,
+    /// The command held.
+    #[serde(skip)]
+    pub cmd: ThrustPct,
+    /// Kind.
+    pub kind: SegmentKind,
+    /// Largest |command|, %, rounded to 5 %.
+    pub level_pct: f64,
+}
+
+/// A measured run ready for the lab.
+#[derive(Debug, Clone)]
+pub struct Run {
+    /// Label (file name).
+    pub name: String,
+    /// Sample times, s.
+    pub t: Vec<f64>,
+    /// Commands held from each sample.
+    pub cmd: Vec<ThrustPct>,
+    /// Measured channels (heading unwrapped, deg); NaN = missing sample.
+    pub y: [Option<Vec<f64>>; N_CHANNELS],
+    /// Locally smoothed channels (quadratic fit over ±0.3 s), for re-initialisation.
+    pub smooth: [Option<Vec<f64>>; N_CHANNELS],
+    /// Estimated white-noise floor per channel (same units).
+    pub noise: [f64; N_CHANNELS],
+    /// Constant-command segments.
+    pub segments: Vec<Segment>,
+    /// Initial velocity estimates (ν, SI) from the first second of data.
+    pub nu0: [f64; 6],
+}
+
+fn unwrap_deg(v: &mut [f64]) {
+    let mut offset = 0.0;
+    let mut prev: Option<f64> = None;
+    for x in v.iter_mut() {
+        if !x.is_finite() {
+            continue;
+        }
+        if let Some(p) = prev {
+            let d = *x + offset - p;
+            if d > 180.0 {
+                offset -= 360.0 * ((d + 180.0) / 360.0).floor();
+            } else if d < -180.0 {
+                offset += 360.0 * ((-d + 180.0) / 360.0).floor();
+            }
+        }
+        *x += offset;
+        prev = Some(*x);
+    }
+}
+
+/// Robust white-noise estimate from third differences (smooth signals cancel).
+fn noise_estimate(v: &[f64]) -> Option<f64> {
+    let mut d: Vec<f64> = v
+        .windows(4)
+        .map(|w| (w[3] - 3.0 * w[2] + 3.0 * w[1] - w[0]).abs())
+        .filter(|x| x.is_finite())
+        .collect();
+    if d.len() < 8 {
+        return None;
+    }
+    d.sort_by(f64::total_cmp);
+    let med = d[d.len() / 2];
+    Some(1.4826 * med / 20f64.sqrt())
+}
+
+/// Local quadratic least-squares fit: value and slope at `t[i]` from samples within
+/// `[t_i − before, t_i + after]`.
+pub(crate) fn local_quadratic(
+    t: &[f64],
+    y: &[f64],
+    i: usize,
+    before_s: f64,
+    after_s: f64,
+) -> Option<(f64, f64)> {
+    let ti = *t.get(i)?;
+    let mut s = [[0.0f64; 3]; 3];
+    let mut b = [0.0f64; 3];
+    let mut n = 0;
+    let mut lo = i;
+    while lo > 0 && t[lo - 1] >= ti - before_s - 1e-9 {
+        lo -= 1;
+    }
+    let mut hi = i;
+    while hi + 1 < t.len() && t[hi + 1] <= ti + after_s + 1e-9 {
+        hi += 1;
+    }
+    for k in lo..=hi {
+        let yk = y[k];
+        if !yk.is_finite() {
+            continue;
+        }
+        let x = t[k] - ti;
+        let phi = [1.0, x, x * x];
+        for r in 0..3 {
+            b[r] += phi[r] * yk;
+            for c in 0..3 {
+                s[r][c] += phi[r] * phi[c];
+            }
+        }
+        n += 1;
+    }
+    if n < 4 {
+        return None;
+    }
+    let m = nalgebra::Matrix3::from_fn(|r, c| s[r][c]);
+    let sol = m.lu().solve(&nalgebra::Vector3::new(b[0], b[1], b[2]))?;
+    (sol[0].is_finite() && sol[1].is_finite()).then_some((sol[0], sol[1]))
+}
+
+impl Run {
+    /// Prepares a measurement series. Fails when the series has fewer than 10 rows or a
+    /// time step above 5 s.
+    pub fn from_series(series: &MeasurementSeries, name: &str) -> Result<Self, LabError> {
+        let n = series.rows.len();
+        if n < 10 {
+            return Err(LabError::Data {
+                run: name.into(),
+                detail: format!("{n} rows; the lab needs at least 10"),
+            });
+        }
+        let t: Vec<f64> = series.rows.iter().map(|r| r.time_s).collect();
+        if let Some(w) = t.windows(2).find(|w| w[1] - w[0] > 5.0) {
+            return Err(LabError::Data {
+                run: name.into(),
+                detail: format!(
+                    "gap of {:.1} s at t = {} s; split the run at gaps",
+                    w[1] - w[0],
+                    w[0]
+                ),
+            });
+        }
+        let cmd: Vec<ThrustPct> = series
+            .rows
+            .iter()
+            .map(|r| ThrustPct::new(r.port_pct, r.starboard_pct, r.vertical_pct))
+            .collect();
+        let mut y: [Option<Vec<f64>>; N_CHANNELS] = Default::default();
+        type Pick = fn(&rov_types::MeasurementRow) -> f64;
+        let main: [(Channel, Pick); 4] = [
+            (Channel::Depth, |r| r.depth_m),
+            (Channel::Heading, |r| r.heading_deg),
+            (Channel::Pitch, |r| r.pitch_deg),
+            (Channel::Roll, |r| r.roll_deg),
+        ];
+        for (ch, pick) in main {
+            let v: Vec<f64> = series.rows.iter().map(pick).collect();
+            if v.iter().filter(|x| x.is_finite()).count() >= 10 {
+                y[ch_index(ch)] = Some(v);
+            }
+        }
+        for ch in Channel::ALL {
+            let Some(opt) = ch.optional_column() else {
+                continue;
+            };
+            if !series.present[opt as usize] {
+                continue;
+            }
+            let v: Vec<f64> = series
+                .rows
+                .iter()
+                .map(|r| r.get(opt).unwrap_or(f64::NAN))
+                .collect();
+            if v.iter().filter(|x| x.is_finite()).count() >= 10 {
+                y[ch_index(ch)] = Some(v);
+            }
+        }
+        if let Some(h) = y[ch_index(Channel::Heading)].as_mut() {
+            unwrap_deg(h);
+        }
+        let mut noise = [0.0; N_CHANNELS];
+        let mut smooth: [Option<Vec<f64>>; N_CHANNELS] = Default::default();
+        for ch in Channel::ALL {
+            let i = ch_index(ch);
+            if let Some(v) = &y[i] {
+                noise[i] = noise_estimate(v).unwrap_or(0.0).max(noise_floor_min(ch));
+                let s: Vec<f64> = (0..n)
+                    .map(|k| {
+                        local_quadratic(&t, v, k, 0.3, 0.3)
+                            .map(|(a, _)| a)
+                            .unwrap_or(v[k])
+                    })
+                    .collect();
+                smooth[i] = Some(s);
+            }
+        }
+        // Initial rates: a straight-line fit over the first quiet stretch (at most 2 s),
+        // kept only when clearly non-zero (a noisy slope would start a drift).
+        let first_len_s = segments_of(&t, &cmd)
+            .first()
+            .map_or(0.0, |s| s.t_end_s - s.t_start_s);
+        let win = first_len_s.min(2.0);
+        let slope = |ch: Channel| -> f64 {
+            let Some(v) = y[ch_index(ch)].as_ref() else {
+                return 0.0;
+            };
+            if win < 0.5 {
+                return 0.0;
+            }
+            let pts: Vec<(f64, f64)> = t
+                .iter()
+                .zip(v)
+                .take_while(|(ti, _)| **ti - t[0] <= win + 1e-9)
+                .filter(|(_, yi)| yi.is_finite())
+                .map(|(ti, yi)| (*ti - t[0], *yi))
+                .collect();
+            let m = pts.len() as f64;
+            if m < 5.0 {
+                return 0.0;
+            }
+            let (st, sy) = pts.iter().fold((0.0, 0.0), |a, p| (a.0 + p.0, a.1 + p.1));
+            let (mt, my) = (st / m, sy / m);
+            let stt: f64 = pts.iter().map(|p| (p.0 - mt).powi(2)).sum();
+            let sty: f64 = pts.iter().map(|p| (p.0 - mt) * (p.1 - my)).sum();
+            if stt <= 0.0 {
+                return 0.0;
+            }
+            let b = sty / stt;
+            let res: f64 = pts
+                .iter()
+                .map(|p| (p.1 - my - b * (p.0 - mt)).powi(2))
+                .sum::<f64>()
+                / (m - 2.0);
+            let se = (res / stt).sqrt();
+            if b.abs() > 3.0 * se { b } else { 0.0 }
+        };
+        let opt_or = |ch: Channel, fallback: f64| -> f64 {
+            y[ch_index(ch)]
+                .as_ref()
+                .and_then(|v| v.first().copied())
+                .filter(|x| x.is_finite())
+                .unwrap_or(fallback)
+        };
+        let nu0 = [
+            opt_or(Channel::Surge, 0.0),
+            opt_or(Channel::Sway, 0.0),
+            opt_or(Channel::Heave, slope(Channel::Depth)),
+            opt_or(Channel::RollRate, slope(Channel::Roll)).to_radians(),
+            opt_or(Channel::PitchRate, slope(Channel::Pitch)).to_radians(),
+            opt_or(Channel::YawRate, slope(Channel::Heading)).to_radians(),
+        ];
+        let segments = segments_of(&t, &cmd);
+        Ok(Self {
+            name: name.into(),
+            t,
+            cmd,
+            y,
+            smooth,
+            noise,
+            segments,
+            nu0,
+        })
+    }
+
+    /// Parses a measurement CSV text.
+    pub fn from_csv(text: &str, name: &str) -> Result<Self, LabError> {
+        let s = MeasurementSeries::parse_csv(text, name)?;
+        Self::from_series(&s, name)
+    }
+
+    /// Number of samples.
+    pub fn len(&self) -> usize {
+        self.t.len()
+    }
+
+    /// Whether the run is empty.
+    pub fn is_empty(&self) -> bool {
+        self.t.is_empty()
+    }
+
+    /// Duration, s.
+    pub fn duration_s(&self) -> f64 {
+        match (self.t.first(), self.t.last()) {
+            (Some(a), Some(b)) => b - a,
+            _ => 0.0,
+        }
+    }
+
+    /// The measured samples of a channel, if present.
+    pub fn channel(&self, ch: Channel) -> Option<&[f64]> {
+        self.y[ch_index(ch)].as_deref()
+    }
+
+    /// Whether a channel was measured.
+    pub fn has(&self, ch: Channel) -> bool {
+        self.y[ch_index(ch)].is_some()
+    }
+
+    /// Sample indices where a shooting window starts: run start, then the first segment
+    /// start at least `min_window_s` after the previous reset.
+    pub fn shooting_starts(&self, min_window_s: f64) -> Vec<usize> {
+        let mut out = vec![0];
+        if !min_window_s.is_finite() {
+            return out;
+        }
+        let mut last_t = self.t.first().copied().unwrap_or(0.0);
+        for s in &self.segments {
+            if s.start == 0 {
+                continue;
+            }
+            if s.t_start_s - last_t >= min_window_s - 1e-9
+                && self.t.last().is_some_and(|e| e - s.t_start_s >= 1.0)
+            {
+                out.push(s.start);
+                last_t = s.t_start_s;
+            }
+        }
+        out
+    }
+
+    /// Reset indices every `k` samples (k-step view).
+    pub fn every_k(&self, k: usize) -> Vec<usize> {
+        (0..self.len()).step_by(k.max(1)).collect()
+    }
+
+    /// Median sample period, s.
+    pub fn median_dt(&self) -> f64 {
+        let mut d: Vec<f64> = self.t.windows(2).map(|w| w[1] - w[0]).collect();
+        if d.is_empty() {
+            return 0.05;
+        }
+        d.sort_by(f64::total_cmp);
+        d[d.len() / 2]
+    }
+
+    /// Whether any thruster command takes both signs (reverse steps present) per
+    /// thruster.
+    pub fn reverse_present(&self) -> [bool; 3] {
+        let mut r = [false; 3];
+        for c in &self.cmd {
+            r[0] |= c.port <= -5.0;
+            r[1] |= c.starboard <= -5.0;
+            r[2] |= c.vertical <= -5.0;
+        }
+        r
+    }
+}
+
+/// Constant-command segments (a change of more than 0.5 % starts a new one).
+pub fn segments_of(t: &[f64], cmd: &[ThrustPct]) -> Vec<Segment> {
+    let mut out = Vec::new();
+    let mut start = 0;
+    let changed = |a: &ThrustPct, b: &ThrustPct| {
+        (a.port - b.port).abs() > 0.5
+            || (a.starboard - b.starboard).abs() > 0.5
+            || (a.vertical - b.vertical).abs() > 0.5
+    };
+    for k in 1..=cmd.len() {
+        if k == cmd.len() || changed(&cmd[k], &cmd[start]) {
+            let c = cmd[start];
+            let level = c.port.abs().max(c.starboard.abs()).max(c.vertical.abs());
+            out.push(Segment {
+                start,
+                end: k,
+                t_start_s: t[start],
+                t_end_s: t[k - 1],
+                cmd: c,
+                kind: SegmentKind::of(&c),
+                level_pct: (level / 5.0).round() * 5.0,
+            });
+            start = k;
+        }
+    }
+    out
+}
+
+/// Convenience: the optional-channel column of a channel (re-export for callers).
+pub fn optional_of(ch: Channel) -> Option<OptionalChannel> {
+    ch.optional_column()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn csv(rows: &[(f64, f64, f64)]) -> String {
+        let mut s = String::from(
+            "time_s,port_pct,starboard_pct,vertical_pct,depth_m,heading_deg,pitch_deg,roll_deg\n",
+        );
+        for (t, v, h) in rows {
+            s.push_str(&format!("{t},0,0,{v},1.0,{h},0,0\n"));
+        }
+        s
+    }
+
+    #[test]
+    fn heading_is_unwrapped_and_segments_follow_command_changes() {
+        let rows: Vec<(f64, f64, f64)> = (0..40)
+            .map(|k| {
+                let t = k as f64 * 0.1;
+                let v = if (10..25).contains(&k) { 60.0 } else { 0.0 };
+                (t, v, (350.0 + 2.0 * k as f64) % 360.0)
+            })
+            .collect();
+        let run = Run::from_csv(&csv(&rows), "r").unwrap();
+        let h = run.channel(Channel::Heading).unwrap();
+        assert!((h[39] - (350.0 + 78.0)).abs() < 1e-9, "{}", h[39]);
+        assert_eq!(run.segments.len(), 3);
+        assert_eq!(run.segments[1].kind, SegmentKind::Vertical);
+        assert_eq!(run.segments[1].start, 10);
+        assert_eq!(run.segments[1].end, 25);
+        assert_eq!(run.segments[1].level_pct, 60.0);
+        assert!(!run.has(Channel::YawRate));
+    }
+
+    #[test]
+    fn wrap_and_noise_floor() {
+        assert_eq!(wrap180(190.0), -170.0);
+        assert_eq!(wrap180(-180.0), 180.0);
+        assert!((wrap180(720.5) - 0.5).abs() < 1e-12);
+        // White noise of σ = 0.01 on a slow ramp: the third-difference estimate finds σ.
+        let mut x = 12345u64;
+        let v: Vec<f64> = (0..4000)
+            .map(|k| {
+                // Sum of uniforms ≈ normal (Irwin–Hall, 12 terms, σ = 1).
+                let mut s = 0.0;
+                for _ in 0..12 {
+                    x = x
+                        .wrapping_mul(6364136223846793005)
+                        .wrapping_add(1442695040888963407);
+                    s += (x >> 11) as f64 / (1u64 << 53) as f64;
+                }
+                k as f64 * 1e-3 + 0.01 * (s - 6.0)
+            })
+            .collect();
+        let s = noise_estimate(&v).unwrap();
+        assert!((s - 0.01).abs() < 0.0015, "{s}");
+    }
+
+    #[test]
+    fn local_quadratic_is_exact_on_quadratics() {
+        let t: Vec<f64> = (0..30).map(|k| k as f64 * 0.05).collect();
+        let y: Vec<f64> = t.iter().map(|x| 1.0 + 2.0 * x - 3.0 * x * x).collect();
+        let (v, s) = local_quadratic(&t, &y, 10, 0.3, 0.3).unwrap();
+        assert!((v - y[10]).abs() < 1e-9);
+        assert!((s - (2.0 - 6.0 * t[10])).abs() < 1e-9);
+    }
+
+    #[test]
+    fn too_short_and_gappy_runs_are_rejected() {
+        let rows: Vec<(f64, f64, f64)> = (0..5).map(|k| (k as f64, 0.0, 0.0)).collect();
+        assert!(matches!(
+            Run::from_csv(&csv(&rows), "s"),
+            Err(LabError::Data { .. })
+        ));
+        let mut rows: Vec<(f64, f64, f64)> = (0..20).map(|k| (k as f64 * 0.1, 0.0, 0.0)).collect();
+        rows[15].0 = 10.0;
+        for (i, r) in rows.iter_mut().enumerate().skip(16) {
+            r.0 = 10.0 + i as f64 * 0.1;
+        }
+        let e = Run::from_csv(&csv(&rows), "g").unwrap_err();
+        assert!(e.to_string().contains("gap"), "{e}");
+    }
+}

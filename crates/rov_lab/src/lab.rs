@@ -1,0 +1,572 @@
+//! The lab's user-level operations behind `topside lab compare|diagnose|add`, with
+//! serialisable reports (the CLI prints them as text or JSON).
+
+use std::collections::BTreeMap;
+
+use rov_dynamics::models::Channel;
+use serde::Serialize;
+
+use crate::LabError;
+use crate::analysis::{ChannelFailure, channel_failure, segment_metrics};
+use crate::calibrate::{FittedParam, SHOOTING_WINDOW_S, View, fit, staged_fit};
+use crate::catalog::EffectId;
+use crate::data::{Run, ch_name};
+use crate::diagnose::{Diagnosis, Finding};
+use crate::evaluate::{Evaluation, evaluate};
+use crate::lm::LmOptions;
+use crate::metrics::{ChannelMetrics, channel_metrics, pooled_metrics, windows};
+use crate::model::LabModel;
+use crate::params::{Param, effect_params};
+use crate::sim::{Prediction, compared_channels, simulate_run};
+
+/// k of the k-step view, s.
+pub const K_STEP_S: f64 = 5.0;
+
+/// Metrics of all compared channels in one view.
+#[derive(Debug, Clone, Serialize)]
+pub struct ViewMetrics {
+    /// Per channel.
+    pub channels: BTreeMap<String, ChannelMetrics>,
+}
+
+/// A segment's metrics.
+#[derive(Debug, Clone, Serialize)]
+pub struct SegmentReport {
+    /// Label, e.g. "vertical 60 %".
+    pub label: String,
+    /// Start, s.
+    pub t_start_s: f64,
+    /// End, s.
+    pub t_end_s: f64,
+    /// Per channel (multiple-shooting view).
+    pub channels: BTreeMap<String, ChannelMetrics>,
+}
+
+/// A window's metrics.
+#[derive(Debug, Clone, Serialize)]
+pub struct WindowReport {
+    /// Start, s.
+    pub t_start_s: f64,
+    /// End, s.
+    pub t_end_s: f64,
+    /// Per channel (free-run view).
+    pub channels: BTreeMap<String, ChannelMetrics>,
+}
+
+/// One run's comparison.
+#[derive(Debug, Clone, Serialize)]
+pub struct RunReport {
+    /// Run name.
+    pub name: String,
+    /// Duration, s.
+    pub duration_s: f64,
+    /// Per view: "free_run", "shooting", "k_step".
+    pub views: BTreeMap<String, ViewMetrics>,
+    /// Per manoeuvre segment.
+    pub segments: Vec<SegmentReport>,
+    /// Per 10 s window (50 % overlap).
+    pub windows: Vec<WindowReport>,
+}
+
+/// Result of [`compare`].
+#[derive(Debug, Clone, Serialize)]
+pub struct CompareReport {
+    /// Model name as given.
+    pub model: String,
+    /// Effects in the model.
+    pub effects: Vec<String>,
+    /// Whether the effects' parameters were fitted on the compared data.
+    pub effects_fitted_in_sample: bool,
+    /// Pooled over runs, per view.
+    pub pooled: BTreeMap<String, ViewMetrics>,
+    /// Per run.
+    pub runs: Vec<RunReport>,
+    /// Measured channels the model does not predict.
+    pub not_predicted: Vec<String>,
+    /// Failure views per channel (multiple-shooting residuals).
+    pub failures: Vec<ChannelFailure>,
+    /// Fitted effect parameters, if any.
+    pub params: Vec<FittedParam>,
+    /// Notes.
+    pub notes: Vec<String>,
+    /// Predictions per run in the free-run view (for plots; not serialised).
+    #[serde(skip)]
+    pub free_run: Vec<Prediction>,
+    /// Predictions per run in the multiple-shooting view.
+    #[serde(skip)]
+    pub shooting: Vec<Prediction>,
+}
+
+fn view_metrics(run: &Run, pred: &Prediction, chans: &[Channel]) -> ViewMetrics {
+    ViewMetrics {
+        channels: chans
+            .iter()
+            .filter_map(|c| channel_metrics(run, pred, *c).map(|m| (ch_name(*c).to_string(), m)))
+            .collect(),
+    }
+}
+
+fn not_predicted(model: &LabModel, runs: &[Run]) -> Vec<String> {
+    Channel::ALL
+        .iter()
+        .filter(|c| runs.iter().any(|r| r.has(**c)) && !model.predicts_channel(**c))
+        .map(|c| ch_name(*c).to_string())
+        .collect()
+}
+
+/// Adds effects to a model and fits them jointly with the base on `runs` (two stages,
+/// every calibrated base parameter free). Contained effects refit their base
+/// parameters instead of adding a term.
+pub fn fit_with_effects(
+    model: &LabModel,
+    runs: &[Run],
+    effects: &[EffectId],
+    opts: &LmOptions,
+) -> Result<(LabModel, Vec<FittedParam>), LabError> {
+    let mut m = model.clone();
+    let mut free: Vec<Param> = model
+        .kind()
+        .calibration_params()
+        .into_iter()
+        .filter(|p| crate::calibrate::excited(model, runs, *p))
+        .collect();
+    for e in effects {
+        if let Some(reason) = model.kind().not_applicable(*e) {
+            return Err(LabError::NotApplicable {
+                effect: e.key().into(),
+                model: model.kind().name().into(),
+                reason: reason.into(),
+            });
+        }
+        m.add_effect(*e);
+        for p in effect_params(*e) {
+            if m.applicable(p) && !free.contains(&p) {
+                free.push(p);
+            }
+        }
+    }
+    // Start each effect parameter at the better of "off" and its probe value.
+    let obj = crate::calibrate::Objective::new(&m, runs, View::Shooting(SHOOTING_WINDOW_S));
+    let cost = |x: &LabModel| -> f64 {
+        obj.residuals(x)
+            .map(|r| r.iter().map(|v| v * v).sum())
+            .unwrap_or(f64::INFINITY)
+    };
+    for e in effects {
+        for p in effect_params(*e) {
+            if !m.applicable(p) || p.off_value().is_none() {
+                continue;
+            }
+            let cur = m.get(p).unwrap_or(0.0);
+            let mut best = (cost(&m), cur);
+            for cand in [
+                p.probe_value(),
+                2.0 * p.probe_value() - p.off_value().unwrap_or(0.0),
+            ] {
+                if let Ok(t) = m.with(&[p], &[cand]) {
+                    let c = cost(&t);
+                    if c < best.0 {
+                        best = (c, cand);
+                    }
+                }
+            }
+            m = m.with(&[p], &[best.1])?;
+        }
+    }
+    let cal = staged_fit(&m, runs, &free, opts)?;
+    let polish = fit(
+        &cal.model,
+        runs,
+        &free,
+        View::Shooting(SHOOTING_WINDOW_S),
+        None,
+        None,
+        &LmOptions {
+            max_iter: 3,
+            ..*opts
+        },
+    )?;
+    let best = if polish.cost <= cal.cost { polish } else { cal };
+    Ok((best.model, best.fitted))
+}
+
+/// Compares a model (with optional effects fitted on the same data) with measured runs in
+/// the three views.
+pub fn compare(
+    model: &LabModel,
+    model_label: &str,
+    runs: &[Run],
+    effects: &[EffectId],
+    threads: usize,
+) -> Result<CompareReport, LabError> {
+    let mut notes = Vec::new();
+    let (m, params) = if effects.is_empty() {
+        (model.clone(), Vec::new())
+    } else {
+        notes.push(
+            "the effects' parameters were fitted jointly with the base calibration on the compared data (in-sample); use `lab add` for a held-out comparison".into(),
+        );
+        fit_with_effects(
+            model,
+            runs,
+            effects,
+            &LmOptions {
+                max_iter: 8,
+                threads,
+                ..Default::default()
+            },
+        )?
+    };
+    let dt = runs.first().map_or(0.05, |r| r.median_dt()).max(1e-3);
+    let k = (K_STEP_S / dt).round().max(1.0) as usize;
+    let mut run_reports = Vec::new();
+    let (mut free, mut shoot, mut kstep) = (Vec::new(), Vec::new(), Vec::new());
+    for run in runs {
+        let chans = compared_channels(&m, run);
+        let pf = simulate_run(&m, run, &View::FreeRun.resets(run))?;
+        let ps = simulate_run(&m, run, &View::Shooting(SHOOTING_WINDOW_S).resets(run))?;
+        let pk = simulate_run(&m, run, &View::KStep(k).resets(run))?;
+        let mut views = BTreeMap::new();
+        views.insert("free_run".to_string(), view_metrics(run, &pf, &chans));
+        views.insert("shooting".to_string(), view_metrics(run, &ps, &chans));
+        views.insert("k_step".to_string(), view_metrics(run, &pk, &chans));
+        let mut seg_map: Vec<SegmentReport> = Vec::new();
+        for ch in &chans {
+            for (label, t0, t1, mm) in segment_metrics(run, &ps, *ch) {
+                match seg_map
+                    .iter_mut()
+                    .find(|s| s.t_start_s == t0 && s.label == label)
+                {
+                    Some(s) => {
+                        s.channels.insert(ch_name(*ch).to_string(), mm);
+                    }
+                    None => seg_map.push(SegmentReport {
+                        label,
+                        t_start_s: t0,
+                        t_end_s: t1,
+                        channels: [(ch_name(*ch).to_string(), mm)].into_iter().collect(),
+                    }),
+                }
+            }
+        }
+        let win = windows(run, 10.0)
+            .into_iter()
+            .map(|w| WindowReport {
+                t_start_s: run.t[w.start],
+                t_end_s: run.t[w.end - 1],
+                channels: chans
+                    .iter()
+                    .filter_map(|c| {
+                        crate::metrics::channel_metrics_range(run, &pf, *c, w.clone())
+                            .map(|mm| (ch_name(*c).to_string(), mm))
+                    })
+                    .collect(),
+            })
+            .collect();
+        run_reports.push(RunReport {
+            name: run.name.clone(),
+            duration_s: run.duration_s(),
+            views,
+            segments: seg_map,
+            windows: win,
+        });
+        free.push(pf);
+        shoot.push(ps);
+        kstep.push(pk);
+    }
+    let mut all: Vec<Channel> = Vec::new();
+    for r in runs {
+        for c in compared_channels(&m, r) {
+            if !all.contains(&c) {
+                all.push(c);
+            }
+        }
+    }
+    let pooled_view = |preds: &[Prediction]| -> ViewMetrics {
+        let items: Vec<(&Run, &Prediction)> = runs.iter().zip(preds.iter()).collect();
+        ViewMetrics {
+            channels: all
+                .iter()
+                .filter_map(|c| pooled_metrics(&items, *c).map(|mm| (ch_name(*c).to_string(), mm)))
+                .collect(),
+        }
+    };
+    let mut pooled = BTreeMap::new();
+    pooled.insert("free_run".to_string(), pooled_view(&free));
+    pooled.insert("shooting".to_string(), pooled_view(&shoot));
+    pooled.insert("k_step".to_string(), pooled_view(&kstep));
+    let failures = all
+        .iter()
+        .filter_map(|c| channel_failure(runs, &shoot, *c))
+        .collect();
+    let np = not_predicted(&m, runs);
+    if !np.is_empty() {
+        notes.push(format!(
+            "{} does not predict {}; they are left out of the metrics",
+            model_label,
+            np.join(", ")
+        ));
+    }
+    Ok(CompareReport {
+        model: model_label.into(),
+        effects: m
+            .active_effects()
+            .iter()
+            .map(|e| e.key().to_string())
+            .collect(),
+        effects_fitted_in_sample: !effects.is_empty(),
+        pooled,
+        runs: run_reports,
+        not_predicted: np,
+        failures,
+        params,
+        notes,
+        free_run: free,
+        shooting: shoot,
+    })
+}
+
+/// Per-channel numbers of a held-out evaluation (multiple shooting primary, free run too).
+#[derive(Debug, Clone, Serialize)]
+pub struct ChannelSummary {
+    /// Fit % (multiple shooting).
+    pub fit_pct: Option<f64>,
+    /// RMSE (multiple shooting).
+    pub rmse: f64,
+    /// Fit % (free run).
+    pub fit_pct_free_run: Option<f64>,
+    /// RMSE (free run).
+    pub rmse_free_run: f64,
+    /// Noise floor estimated from the data.
+    pub noise: f64,
+}
+
+/// Channel summaries of an evaluation.
+pub fn summarize(e: &Evaluation) -> BTreeMap<String, ChannelSummary> {
+    e.channels
+        .iter()
+        .map(|(k, c)| {
+            (
+                k.name().to_string(),
+                ChannelSummary {
+                    fit_pct: c.shooting.fit_pct,
+                    rmse: c.shooting.rmse,
+                    fit_pct_free_run: c.free_run.fit_pct,
+                    rmse_free_run: c.free_run.rmse,
+                    noise: c.noise,
+                },
+            )
+        })
+        .collect()
+}
+
+/// A step of the error fall.
+#[derive(Debug, Clone, Serialize)]
+pub struct ErrorFallStep {
+    /// "calibrated base", "+ thruster-lag", …
+    pub label: String,
+    /// Held-out RMSE per channel (multiple shooting).
+    pub rmse: BTreeMap<String, f64>,
+    /// Held-out RMSE per channel (free run).
+    pub rmse_free_run: BTreeMap<String, f64>,
+}
+
+/// Result of [`add`].
+#[derive(Debug, Clone, Serialize)]
+pub struct AddReport {
+    /// Model name as given.
+    pub model: String,
+    /// Effects added (contained ones are refitted).
+    pub effects: Vec<String>,
+    /// Effects the base already contained (refitted, not added).
+    pub refitted_contained: Vec<String>,
+    /// Held-out metrics of the calibrated base.
+    pub before: BTreeMap<String, ChannelSummary>,
+    /// Held-out metrics after adding and refitting.
+    pub after: BTreeMap<String, ChannelSummary>,
+    /// Held-out RMSE reduction per channel, % (multiple shooting; free run below).
+    pub rmse_reduction_pct: BTreeMap<String, f64>,
+    /// Held-out RMSE reduction per channel, free run, %.
+    pub rmse_reduction_pct_free_run: BTreeMap<String, f64>,
+    /// Error fall across successive additions.
+    pub error_fall: Vec<ErrorFallStep>,
+    /// Base calibration.
+    pub calibration: Vec<FittedParam>,
+    /// Fitted parameters of the final model.
+    pub params: Vec<FittedParam>,
+    /// Measured channels the model does not predict.
+    pub not_predicted: Vec<String>,
+    /// The final model (not serialised).
+    #[serde(skip)]
+    pub model_fitted: Option<LabModel>,
+    /// Held-out evaluations: base then after each addition (not serialised).
+    #[serde(skip)]
+    pub evaluations: Vec<Evaluation>,
+}
+
+fn fall_step(label: String, e: &Evaluation) -> ErrorFallStep {
+    ErrorFallStep {
+        label,
+        rmse: e
+            .channels
+            .iter()
+            .map(|(k, c)| (k.name().to_string(), c.shooting.rmse))
+            .collect(),
+        rmse_free_run: e
+            .channels
+            .iter()
+            .map(|(k, c)| (k.name().to_string(), c.free_run.rmse))
+            .collect(),
+    }
+}
+
+/// Calibrates the base on `train`, adds the effects one after the other (each time
+/// refitting the base and all effects so far), and reports held-out metrics before and
+/// after and the error fall.
+pub fn add(
+    model: &LabModel,
+    model_label: &str,
+    effects: &[EffectId],
+    train: &[Run],
+    val: &[Run],
+    threads: usize,
+) -> Result<AddReport, LabError> {
+    let opts = LmOptions {
+        max_iter: 8,
+        threads,
+        ..Default::default()
+    };
+    for e in effects {
+        if let Some(reason) = model.kind().not_applicable(*e) {
+            return Err(LabError::NotApplicable {
+                effect: e.key().into(),
+                model: model.kind().name().into(),
+                reason: reason.into(),
+            });
+        }
+    }
+    let cal = crate::calibrate::calibrate(model, train, &opts)?;
+    let base_eval = evaluate(&cal.model, val)?;
+    let mut evaluations = vec![base_eval.clone()];
+    let mut fall = vec![fall_step("calibrated base".into(), &base_eval)];
+    let mut current = cal.model.clone();
+    let mut params = cal.fitted.clone();
+    let mut so_far: Vec<EffectId> = Vec::new();
+    for e in effects {
+        so_far.push(*e);
+        let (m, p) = fit_with_effects(&current, train, std::slice::from_ref(e), &opts)?;
+        // Refit every effect so far jointly once more (cheap polish).
+        let (m, p) = if so_far.len() > 1 {
+            fit_with_effects(&m, train, &so_far, &opts)?
+        } else {
+            (m, p)
+        };
+        current = m;
+        params = p;
+        let ev = evaluate(&current, val)?;
+        fall.push(fall_step(format!("+ {}", e.key()), &ev));
+        evaluations.push(ev);
+    }
+    let last = evaluations.last().cloned().unwrap_or_default();
+    let red = |f: fn(&crate::evaluate::ChannelEval) -> f64| -> BTreeMap<String, f64> {
+        base_eval
+            .channels
+            .iter()
+            .filter_map(|(k, b)| {
+                last.channels.get(k).map(|a| {
+                    let (x, y) = (f(b), f(a));
+                    (
+                        k.name().to_string(),
+                        if x > 0.0 { 100.0 * (1.0 - y / x) } else { 0.0 },
+                    )
+                })
+            })
+            .collect()
+    };
+    Ok(AddReport {
+        model: model_label.into(),
+        effects: effects.iter().map(|e| e.key().to_string()).collect(),
+        refitted_contained: effects
+            .iter()
+            .filter(|e| model.kind().contains(**e))
+            .map(|e| e.key().to_string())
+            .collect(),
+        before: summarize(&base_eval),
+        after: summarize(&last),
+        rmse_reduction_pct: red(|c| c.shooting.rmse),
+        rmse_reduction_pct_free_run: red(|c| c.free_run.rmse),
+        error_fall: fall,
+        calibration: cal.fitted,
+        params,
+        not_predicted: not_predicted(model, val),
+        model_fitted: Some(current),
+        evaluations,
+    })
+}
+
+/// The JSON of `topside lab diagnose`.
+#[derive(Debug, Clone, Serialize)]
+pub struct DiagnoseJson {
+    /// Model name as given.
+    pub model: String,
+    /// Calibrated base on the held-out data.
+    pub baseline: BaselineJson,
+    /// Findings, best first.
+    pub findings: Vec<Finding>,
+    /// Summary.
+    pub summary: String,
+    /// Accepted effects in order.
+    pub accepted: Vec<String>,
+    /// Channels measured but not predicted.
+    pub not_predicted: Vec<String>,
+    /// Base calibration.
+    pub calibration: Vec<FittedParam>,
+    /// Error fall across accepted effects (held-out RMSE, multiple shooting).
+    pub error_fall: Vec<ErrorFallStep>,
+}
+
+/// `baseline` of [`DiagnoseJson`].
+#[derive(Debug, Clone, Serialize)]
+pub struct BaselineJson {
+    /// Per predicted channel.
+    pub channels: BTreeMap<String, ChannelSummary>,
+}
+
+/// Builds the diagnose JSON document.
+pub fn diagnose_json(d: &Diagnosis) -> DiagnoseJson {
+    DiagnoseJson {
+        model: d.model.clone(),
+        baseline: BaselineJson {
+            channels: d
+                .baseline
+                .iter()
+                .map(|(k, b)| {
+                    (
+                        k.clone(),
+                        ChannelSummary {
+                            fit_pct: b.fit_pct,
+                            rmse: b.rmse_shooting,
+                            fit_pct_free_run: b.fit_pct_free_run,
+                            rmse_free_run: b.rmse,
+                            noise: b.noise,
+                        },
+                    )
+                })
+                .collect(),
+        },
+        findings: d.findings.clone(),
+        summary: d.summary.clone(),
+        accepted: d.accepted.iter().map(|e| e.key().to_string()).collect(),
+        not_predicted: d.not_predicted.clone(),
+        calibration: d.calibration.clone(),
+        error_fall: d
+            .error_fall
+            .iter()
+            .map(|(label, m)| ErrorFallStep {
+                label: label.clone(),
+                rmse: m.shooting.clone(),
+                rmse_free_run: m.free_run.clone(),
+            })
+            .collect(),
+    }
+}

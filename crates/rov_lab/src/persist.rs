@@ -1,0 +1,228 @@
+//! Saving and loading extended models.
+//!
+//! A saved extended model is the base model's parameter file (unchanged, so its units
+//! and sources stay) followed by a `[lab]` table:
+//!
+//! ```toml
+//! [lab]
+//! base = "model3"
+//! effects = ["thruster-lag"]
+//! [lab.params]
+//! lag_time_constant_s = { value = 0.25, unit = "s", source = "model lab fit (± 0.01)" }
+//! thrust_quadratic_scale_vertical = { value = 0.87, unit = "-", source = "model lab calibration" }
+//! ```
+//!
+//! `lab.params` holds every calibrated and effect parameter by key ([`Param::key`]); on
+//! loading they are applied to the base. A file without `[lab]` is a plain base model.
+//! [`load_extended_model`] returns it as a [`VehicleModel`] that `sim`, `hold` and the lab
+//! use like any model.
+
+use rov_dynamics::models::VehicleModel;
+
+use crate::LabError;
+use crate::catalog::EffectId;
+use crate::model::{BaseKind, LabModel};
+use crate::params::Param;
+
+/// Parameters written to a saved model: those applicable to the base that calibration
+/// or an effect can change.
+fn saved_params(model: &LabModel) -> Vec<Param> {
+    let mut v: Vec<Param> = model.kind().calibration_params();
+    for e in model.active_effects() {
+        for p in crate::params::effect_params(*e) {
+            if !v.contains(&p) {
+                v.push(p);
+            }
+        }
+    }
+    for p in [Param::NetWeight, Param::CgX, Param::CgY] {
+        if model.applicable(p) && !v.contains(&p) {
+            v.push(p);
+        }
+    }
+    v.retain(|p| model.applicable(*p));
+    v
+}
+
+/// The saved-model TOML text of a lab model. `note` goes into the parameters' source.
+pub fn save_extended_model(model: &LabModel, note: &str) -> String {
+    let mut out = String::new();
+    out.push_str(&format!(
+        "# Extended model saved by the topside model lab: {} ({note}).\n# The base model's parameter file follows unchanged; the [lab] table at the end holds the\n# calibrated and effect parameters, applied on loading.\n\n",
+        rov_dynamics::models::VehicleModel::name(model)
+    ));
+    out.push_str(model.base_text().trim_end());
+    out.push_str("\n\n[lab]\n");
+    out.push_str(&format!("base = \"{}\"\n", model.kind().name()));
+    let effects: Vec<String> = model
+        .active_effects()
+        .iter()
+        .map(|e| format!("\"{}\"", e.key()))
+        .collect();
+    out.push_str(&format!("effects = [{}]\n", effects.join(", ")));
+    out.push_str("\n[lab.params]\n");
+    for p in saved_params(model) {
+        if let Some(v) = model.get(p) {
+            out.push_str(&format!(
+                "{} = {{ value = {}, unit = \"{}\", source = \"model lab ({note})\" }}\n",
+                p.key(),
+                fmt_f64(v),
+                p.meta().unit
+            ));
+        }
+    }
+    out
+}
+
+fn fmt_f64(v: f64) -> String {
+    let s = format!("{v:?}");
+    if s.contains('.') || s.contains('e') || s.contains("inf") || s.contains("NaN") {
+        s
+    } else {
+        format!("{s}.0")
+    }
+}
+
+fn bad(file: &str, detail: impl Into<String>) -> LabError {
+    LabError::SavedModel {
+        file: file.into(),
+        detail: detail.into(),
+    }
+}
+
+/// Loads a saved extended model (or a plain base-model file) as a lab model.
+pub fn load_lab_model(text: &str, label: &str) -> Result<LabModel, LabError> {
+    let mut table: toml::Table = text
+        .parse()
+        .map_err(|e: toml::de::Error| bad(label, format!("not valid TOML: {e}")))?;
+    let lab = table.remove("lab");
+    let kind_name = match table.get("model") {
+        Some(toml::Value::String(s)) => s.clone(),
+        _ => {
+            return Err(bad(
+                label,
+                "key `model` (model1, model2 or model3) is missing",
+            ));
+        }
+    };
+    let kind = BaseKind::parse(&kind_name).ok_or_else(|| LabError::UnknownModel {
+        name: kind_name.clone(),
+    })?;
+    let base_text = if lab.is_some() {
+        toml::to_string(&table).map_err(|e| bad(label, e.to_string()))?
+    } else {
+        text.to_string()
+    };
+    let mut model = LabModel::from_base_text(kind, &base_text, label)?;
+    let Some(lab) = lab else {
+        return Ok(model);
+    };
+    let toml::Value::Table(lab) = lab else {
+        return Err(bad(label, "`lab` must be a table"));
+    };
+    if let Some(k) = lab
+        .keys()
+        .find(|k| !matches!(k.as_str(), "base" | "effects" | "params"))
+    {
+        return Err(bad(
+            label,
+            format!("lab.{k}: unknown key (allowed: base, effects, params)"),
+        ));
+    }
+    if let Some(b) = lab.get("base")
+        && b.as_str() != Some(kind.name())
+    {
+        return Err(bad(
+            label,
+            format!("lab.base = {b} does not match model = \"{}\"", kind.name()),
+        ));
+    }
+    let mut effects = Vec::new();
+    if let Some(v) = lab.get("effects") {
+        let arr = v
+            .as_array()
+            .ok_or_else(|| bad(label, "lab.effects must be an array of effect IDs"))?;
+        for e in arr {
+            let s = e
+                .as_str()
+                .ok_or_else(|| bad(label, "lab.effects must hold strings"))?;
+            let id = EffectId::parse(s).ok_or_else(|| {
+                bad(
+                    label,
+                    format!("lab.effects: unknown effect {s:?} (see `topside lab effects`)"),
+                )
+            })?;
+            if let Some(reason) = kind.not_applicable(id) {
+                return Err(bad(label, format!("lab.effects: {s} — {reason}")));
+            }
+            effects.push(id);
+        }
+    }
+    let mut params = Vec::new();
+    let mut values = Vec::new();
+    if let Some(t) = lab.get("params") {
+        let t = t
+            .as_table()
+            .ok_or_else(|| bad(label, "lab.params must be a table"))?;
+        for (k, v) in t {
+            let p = Param::from_key(k)
+                .ok_or_else(|| bad(label, format!("lab.params.{k}: unknown parameter")))?;
+            let x = match v {
+                toml::Value::Table(vt) => vt
+                    .get("value")
+                    .and_then(|x| x.as_float().or_else(|| x.as_integer().map(|i| i as f64))),
+                toml::Value::Float(f) => Some(*f),
+                toml::Value::Integer(i) => Some(*i as f64),
+                _ => None,
+            }
+            .ok_or_else(|| {
+                bad(
+                    label,
+                    format!("lab.params.{k}: expected {{ value = number, … }}"),
+                )
+            })?;
+            let m = p.meta();
+            if !(x.is_finite() && x >= m.lo && x <= m.hi) {
+                return Err(bad(
+                    label,
+                    format!(
+                        "lab.params.{k} = {x} is out of range (allowed {}..={})",
+                        m.lo, m.hi
+                    ),
+                ));
+            }
+            if !model.applicable(p) {
+                return Err(bad(
+                    label,
+                    format!("lab.params.{k} does not apply to {}", kind.name()),
+                ));
+            }
+            params.push(p);
+            values.push(x);
+        }
+    }
+    model.set_many(&params, &values)?;
+    for e in effects {
+        model.add_effect(e);
+    }
+    Ok(model)
+}
+
+/// Loads a saved extended model (or a plain base-model file) as a [`VehicleModel`].
+pub fn load_extended_model(text: &str, label: &str) -> Result<Box<dyn VehicleModel>, LabError> {
+    Ok(Box::new(load_lab_model(text, label)?))
+}
+
+/// A model from a command-line argument: a base name, or the text of a saved file
+/// (`text` is read by the caller when `name_or_path` is not a base name).
+pub fn model_from_arg(name_or_path: &str, text: Option<&str>) -> Result<LabModel, LabError> {
+    if let Some(kind) = BaseKind::parse(name_or_path) {
+        return LabModel::default_base(kind);
+    }
+    match text {
+        Some(t) => load_lab_model(t, name_or_path),
+        None => Err(LabError::UnknownModel {
+            name: name_or_path.into(),
+        }),
+    }
+}

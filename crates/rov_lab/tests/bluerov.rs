@@ -1,0 +1,76 @@
+//! The real BlueROV2 tank data (shared/real_data/bluerov2_saabmarine_mex): converted to
+//! the measurement format and run through compare and diagnose end to end. Only sanity is
+//! asserted (finite metrics, no panic); what the lab finds is reported in the notes.
+
+use std::path::PathBuf;
+
+use rov_lab::bluerov::bluerov_to_series;
+use rov_lab::diagnose::{DiagnoseOptions, diagnose};
+use rov_lab::lab::compare;
+use rov_lab::{BaseKind, LabModel, Run};
+
+fn data_dir() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../../../shared/real_data/bluerov2_saabmarine_mex")
+}
+
+fn load(name: &str) -> Option<Run> {
+    let path = data_dir().join(name);
+    let text = std::fs::read_to_string(&path).ok()?;
+    let s = bluerov_to_series(&text, name).unwrap();
+    // The converted series is a valid measurement CSV.
+    let back = rov_types::MeasurementSeries::parse_csv(&s.to_csv(), name).unwrap();
+    assert_eq!(back.rows.len(), s.rows.len());
+    Some(Run::from_series(&s, name).unwrap())
+}
+
+#[test]
+fn bluerov_runs_through_compare_and_diagnose() {
+    let (Some(train), Some(val)) = (
+        load("session_2025_05_27-11_57_50_0_3dof.csv"),
+        load("session_2025_05_27-11_10_52_sync_0_3dof.csv"),
+    ) else {
+        eprintln!("shared/real_data is not present; nothing to check");
+        return;
+    };
+    assert!(train.has(rov_dynamics::models::Channel::YawRate));
+    assert!(train.has(rov_dynamics::models::Channel::North));
+    let m = LabModel::default_base(BaseKind::Model3).unwrap();
+    let r = compare(&m, "model3", std::slice::from_ref(&train), &[], 2).unwrap();
+    for vm in r.pooled.values() {
+        for (ch, mm) in &vm.channels {
+            assert!(mm.rmse.is_finite(), "{ch}");
+        }
+    }
+    let d = diagnose(
+        &m,
+        "model3",
+        &[train],
+        &[val],
+        &DiagnoseOptions {
+            threads: 2,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    for (ch, b) in &d.baseline {
+        assert!(b.rmse.is_finite() && b.rmse_shooting.is_finite(), "{ch}");
+    }
+    eprintln!("BlueROV2 (model3): {}", d.summary);
+    for (ch, b) in &d.baseline {
+        eprintln!(
+            "  baseline {ch}: fit {:?} % RMSE {:.4} (free run fit {:?} %, RMSE {:.4}), noise {:.4}",
+            b.fit_pct.map(|x| x.round()),
+            b.rmse_shooting,
+            b.fit_pct_free_run.map(|x| x.round()),
+            b.rmse,
+            b.noise
+        );
+    }
+    for f in d.findings.iter().take(6) {
+        eprintln!("  {} {:?}: {}", f.effect, f.status, f.explanation);
+    }
+    for c in &d.calibration {
+        eprintln!("  calibrated {} = {:.4} ± {:.4}", c.key, c.value, c.std);
+    }
+}

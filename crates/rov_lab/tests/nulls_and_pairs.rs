@@ -1,0 +1,106 @@
+//! Effect-free runs report nothing significant; two hidden effects are both found, the
+//! larger first; the planar models find `pitch-depth-coupling`.
+
+mod common;
+
+use common::{Hidden, case_len, planar_trim_case};
+use rov_lab::diagnose::{DiagnoseOptions, diagnose};
+use rov_lab::{BaseKind, LabModel, Run};
+
+fn run_diag(kind: BaseKind, tr: Run, va: Run) -> rov_lab::diagnose::Diagnosis {
+    let m = LabModel::default_base(kind).unwrap();
+    diagnose(
+        &m,
+        kind.name(),
+        &[tr],
+        &[va],
+        &DiagnoseOptions {
+            threads: 1,
+            ..Default::default()
+        },
+    )
+    .unwrap()
+}
+
+fn null_seeds(seeds: std::ops::Range<u64>) {
+    for seed in seeds {
+        let (tr, va) = case_len(seed, &[], 360.0, 180.0);
+        let d = run_diag(
+            BaseKind::Model3,
+            Run::from_series(&tr, "train").unwrap(),
+            Run::from_series(&va, "val").unwrap(),
+        );
+        assert!(
+            d.accepted.is_empty(),
+            "seed {seed}: effect-free data reported {:?}: {}",
+            d.accepted,
+            d.findings[0].explanation
+        );
+        assert!(d.findings.iter().all(|f| !f.significant));
+        assert!(d.summary.starts_with("nothing significant"));
+    }
+}
+
+#[test]
+fn effect_free_runs_report_nothing_significant_a() {
+    null_seeds(100..104);
+}
+
+#[test]
+fn effect_free_runs_report_nothing_significant_b() {
+    null_seeds(104..108);
+}
+
+#[test]
+fn two_effects_are_both_found_larger_first() {
+    let (tr, va) = case_len(
+        31,
+        &[Hidden::AsymVertical(0.55), Hidden::TorqueV(0.0012)],
+        360.0,
+        180.0,
+    );
+    let d = run_diag(
+        BaseKind::Model3,
+        Run::from_series(&tr, "train").unwrap(),
+        Run::from_series(&va, "val").unwrap(),
+    );
+    let keys: Vec<&str> = d.accepted.iter().map(|e| e.key()).collect();
+    assert!(
+        keys.len() >= 2 && keys[0] == "thrust-asymmetry" && keys[1] == "propeller-torque",
+        "{keys:?}: {:?}",
+        d.findings
+            .iter()
+            .take(3)
+            .map(|f| &f.explanation)
+            .collect::<Vec<_>>()
+    );
+    assert!(d.findings[0].significant && d.findings[1].significant);
+    assert!(d.findings[0].score > d.findings[1].score);
+    assert_eq!(d.error_fall.len(), keys.len() + 1);
+}
+
+#[test]
+fn planar_model_finds_pitch_depth_coupling() {
+    for (trim, min_red) in [(4.0, 30.0), (8.0, 50.0)] {
+        let (tr, va) = planar_trim_case(41, trim, 360.0, 180.0);
+        let d = run_diag(
+            BaseKind::Model1,
+            Run::from_series(&tr, "train").unwrap(),
+            Run::from_series(&va, "val").unwrap(),
+        );
+        let f = &d.findings[0];
+        assert_eq!(
+            f.effect, "pitch-depth-coupling",
+            "trim {trim}: {}",
+            f.explanation
+        );
+        assert!(f.significant, "{}", f.explanation);
+        assert!(
+            f.validation_rmse_reduction_pct["depth"] >= min_red,
+            "{:?}",
+            f.validation_rmse_reduction_pct
+        );
+        let p = f.params["trim_deg"].value;
+        assert!((p - trim).abs() <= 0.35 * trim, "trim {trim} fitted {p}");
+    }
+}

@@ -1,0 +1,470 @@
+//! The real-time station runtime: the link, the transport and the [`StationCore`] on
+//! their own threads, ticking on deadlines, independent of any GUI frame.
+//!
+//! # Threads ([`Runtime::start`])
+//!
+//! * `station-control`: owns the [`Link`](rov_driver::Link) and the [`StationCore`].
+//!   It waits for bytes or the next deadline (the control tick, at 50 Hz by default,
+//!   scheduled as `t₀ + k·P`, so sleeping never accumulates drift, or the link's next
+//!   timeout), feeds the link, runs the tick, applies pilot commands, and publishes a
+//!   [`StationView`] and one history sample per tick.
+//! * `station-rx` / `station-tx`: move bytes between the transport and the control
+//!   thread (blocking I/O never runs on the control thread).
+//! * `station-watchdog`: if no control tick completes within three periods it sends a
+//!   pre-encoded neutral control frame through the tx thread every period until ticks
+//!   resume, and the runtime raises [`AlarmKind::ControlStall`] (style G2).
+//! * `station-vehicle` (sim mode): the simulated Pro 4 (`rov_vehicle::runner`) on the other
+//!   end of an in-memory transport, on wall time, so sim and serial share every line of
+//!   the station's code.
+//! * `station-gamepad` (feature `gamepad`): gilrs with hotplug; see [`gamepad`].
+//! * `station-recorder` while recording; see [`recorder`].
+//!
+//! The GUI talks to all of this through a [`StationHandle`]: latest-value reads (a lock
+//! held only for a copy), a bounded command queue (overflow counted), and a history feed
+//! it pulls from. A GUI that stalls delays none of the above.
+//!
+//! # Deterministic variants
+//!
+//! [`VirtualStation`] runs the same engine on virtual time through
+//! `rov_vehicle::SimLink`, stepped by the caller (GUI tests, benchmarks);
+//! [`Runtime::replay`] / [`VirtualReplay`] play a recorded session through the same view
+//! pipeline.
+
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::mpsc::{Receiver, SyncSender, TrySendError, sync_channel};
+use std::sync::{Arc, Mutex, MutexGuard};
+use std::thread::JoinHandle;
+use std::time::Duration;
+
+use rov_control::{Axis, ControlConfig, ModelSet};
+use rov_driver::{LinkConfig, MonoClock};
+
+use crate::core::{Snapshot, StationCommand};
+
+pub mod alarms;
+mod engine;
+#[cfg(feature = "gamepad")]
+pub mod gamepad;
+pub mod history;
+mod live;
+pub mod predict;
+pub mod recorder;
+pub mod replay;
+pub mod shaping;
+mod sim;
+pub mod timing;
+pub mod view;
+
+#[cfg(test)]
+mod tests;
+
+pub use alarms::{AlarmConfig, AlarmKind, AlarmState};
+pub use history::{Channel, History, HistorySample, decimate_min_max};
+pub use replay::VirtualReplay;
+pub use shaping::{AxisShaping, GAIN_STEPS_PCT, Gain, StickShaping};
+pub use sim::VirtualStation;
+pub use timing::TickStats;
+pub use view::{
+    AxisModeView, AxisView, CameraView, HealthView, LinkView, PadStatus, PilotView, Quality,
+    RecordingView, ReplayView, Source, StationView,
+};
+
+/// How to reach the vehicle.
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
+pub enum Connection {
+    /// The simulated Pro 4, in-process.
+    #[default]
+    Sim,
+    /// A real Pro 4 on a serial port (115200 8N1).
+    Serial(String),
+}
+
+/// Runtime settings.
+#[derive(Debug, Clone)]
+pub struct RuntimeConfig {
+    /// The vehicle.
+    pub connection: Connection,
+    /// The controller's configuration (its `rate_hz` is the tick rate).
+    pub control: ControlConfig,
+    /// The configuration text stored in recordings.
+    pub config_toml: String,
+    /// The link's configuration (frame recording is switched on by the runtime).
+    pub link: LinkConfig,
+    /// Stick shaping.
+    pub shaping: StickShaping,
+    /// Initial gain step (index into [`GAIN_STEPS_PCT`]).
+    pub gain_index: usize,
+    /// Alarm thresholds.
+    pub alarms: AlarmConfig,
+    /// Poll a gamepad (gilrs; needs the `gamepad` feature).
+    pub gamepad: bool,
+    /// Seed of the simulated vehicle's sensor noise.
+    pub sim_seed: u64,
+    /// Keyboard sticks older than this count as released, µs.
+    pub keyboard_timeout_us: u64,
+}
+
+impl Default for RuntimeConfig {
+    fn default() -> Self {
+        Self {
+            connection: Connection::Sim,
+            control: ControlConfig::default(),
+            config_toml: String::new(),
+            link: LinkConfig::default(),
+            shaping: StickShaping::default(),
+            gain_index: Gain::default().index(),
+            alarms: AlarmConfig::default(),
+            gamepad: true,
+            sim_seed: 1,
+            keyboard_timeout_us: 300_000,
+        }
+    }
+}
+
+impl RuntimeConfig {
+    /// The control period, µs.
+    #[must_use]
+    pub fn period_us(&self) -> u64 {
+        let hz = if self.control.rate_hz.is_finite() && self.control.rate_hz >= 1.0 {
+            self.control.rate_hz.min(1000.0)
+        } else {
+            50.0
+        };
+        (1e6 / hz).round() as u64
+    }
+}
+
+/// Gain changes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum GainCommand {
+    /// One step up.
+    Up,
+    /// One step down.
+    Down,
+    /// A given step.
+    Set(usize),
+}
+
+/// Lights and camera.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum CameraCommand {
+    /// Lights, % (0..100).
+    Lights(f64),
+    /// Camera tilt, degrees (−90..90).
+    Tilt(f64),
+    /// Focus, % (−100..100).
+    Focus(f64),
+}
+
+/// Replay controls.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum ReplayCommand {
+    /// Play.
+    Play,
+    /// Pause.
+    Pause,
+    /// Play/pause.
+    Toggle,
+    /// Speed, × (clamped to 0.1–50).
+    Speed(f64),
+    /// Seek to s since the session start.
+    Seek(f64),
+    /// One message forward (pauses).
+    Step,
+}
+
+/// Everything the GUI (or a script) can ask of the runtime.
+#[derive(Debug, Clone, PartialEq)]
+pub enum RuntimeCommand {
+    /// A station command. `Sticks` are keyboard/GUI sticks: a stream that must be
+    /// refreshed (older than [`RuntimeConfig::keyboard_timeout_us`] → centred).
+    Station(StationCommand),
+    /// The arm button is held (`true`) or released: arms after about 1 s of holding,
+    /// reported at least every 250 ms.
+    ArmButton(bool),
+    /// Toggle a hold on an axis (engage holding the current value, or back to manual).
+    ToggleHold(Axis),
+    /// Gain step.
+    Gain(GainCommand),
+    /// Lights and camera.
+    Camera(CameraCommand),
+    /// New stick shaping.
+    Shaping(StickShaping),
+    /// Acknowledge an alarm (`None`: all).
+    AckAlarm(Option<AlarmKind>),
+    /// Zero the tether turns counter.
+    ResetTurns,
+    /// Start recording to a file.
+    StartRecording(PathBuf),
+    /// Stop recording.
+    StopRecording,
+    /// Replay controls (replay sources only).
+    Replay(ReplayCommand),
+    /// Fault injection for tests: block the control thread for this long.
+    InjectStall(Duration),
+    /// Stop the runtime.
+    Shutdown,
+}
+
+/// Why the runtime could not start.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum RuntimeError {
+    /// The controller refused its configuration.
+    #[error("control: {0}")]
+    Control(#[from] rov_control::ControlError),
+    /// The link refused its configuration.
+    #[error("link: {0}")]
+    Link(#[from] rov_driver::ConfigError),
+    /// The transport failed.
+    #[error("transport: {0}")]
+    Transport(#[from] rov_driver::TransportError),
+    /// The simulated vehicle failed.
+    #[error("vehicle: {0}")]
+    Vehicle(#[from] rov_vehicle::VehicleError),
+    /// A model file failed to load.
+    #[error("model: {0}")]
+    Model(#[from] rov_types::ConfigError),
+    /// A session file failed to open.
+    #[error("session: {0}")]
+    Session(#[from] rov_session::SessionError),
+    /// A thread could not be started.
+    #[error("cannot start a thread: {0}")]
+    Thread(String),
+}
+
+/// Command queue capacity.
+pub const COMMAND_CAPACITY: usize = 256;
+
+/// Gamepad state shared with the gamepad thread.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct PadSlot {
+    /// Raw sticks.
+    pub sticks: rov_control::PilotInput,
+    /// Last poll of the gamepad thread, µs of the runtime clock.
+    pub heartbeat_us: u64,
+    /// Sticks usable (connected, passed through centre since connecting).
+    pub live: bool,
+    /// Status for the GUI.
+    pub status: view::PadStatus,
+    /// Buttons held, by name.
+    pub buttons: Vec<String>,
+    /// The arm button is held.
+    pub arm_held: bool,
+}
+
+/// State shared between the runtime threads and the handle.
+#[derive(Debug)]
+pub(crate) struct Shared {
+    pub view: Mutex<StationView>,
+    pub feed: Mutex<history::HistoryFeed>,
+    pub ticks: Mutex<timing::TickTimer>,
+    pub pad: Mutex<PadSlot>,
+    pub last_tick_us: AtomicU64,
+    pub watchdog_trips: AtomicU64,
+    pub watchdog_frames: AtomicU64,
+    pub watchdog_max_gap_us: AtomicU64,
+    pub commands_dropped: AtomicU64,
+    pub running: AtomicBool,
+    pub clock: MonoClock,
+}
+
+impl Shared {
+    pub fn new(period_us: u64, clock: MonoClock) -> Self {
+        Self {
+            view: Mutex::new(StationView::default()),
+            feed: Mutex::new(history::HistoryFeed::default()),
+            ticks: Mutex::new(timing::TickTimer::new(period_us)),
+            pad: Mutex::new(PadSlot::default()),
+            last_tick_us: AtomicU64::new(0),
+            watchdog_trips: AtomicU64::new(0),
+            watchdog_frames: AtomicU64::new(0),
+            watchdog_max_gap_us: AtomicU64::new(0),
+            commands_dropped: AtomicU64::new(0),
+            running: AtomicBool::new(true),
+            clock,
+        }
+    }
+}
+
+/// Locks a mutex, taking the data of a poisoned one (a panicked holder leaves valid
+/// plain data here).
+pub(crate) fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
+    m.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
+}
+
+/// Tries to lock without waiting (a poisoned mutex is taken as is).
+pub(crate) fn try_lock<T>(m: &Mutex<T>) -> Option<MutexGuard<'_, T>> {
+    match m.try_lock() {
+        Ok(g) => Some(g),
+        Err(std::sync::TryLockError::Poisoned(p)) => Some(p.into_inner()),
+        Err(std::sync::TryLockError::WouldBlock) => None,
+    }
+}
+
+/// The GUI's handle on a running station (live or replay). Dropping it shuts the
+/// runtime down.
+#[derive(Debug)]
+pub struct StationHandle {
+    shared: Arc<Shared>,
+    tx: SyncSender<RuntimeCommand>,
+    threads: Vec<JoinHandle<()>>,
+}
+
+impl StationHandle {
+    pub(crate) fn new(
+        shared: Arc<Shared>,
+        tx: SyncSender<RuntimeCommand>,
+        threads: Vec<JoinHandle<()>>,
+    ) -> Self {
+        Self {
+            shared,
+            tx,
+            threads,
+        }
+    }
+
+    /// The latest station snapshot (a copy).
+    #[must_use]
+    pub fn snapshot(&self) -> Snapshot {
+        lock(&self.shared.view).snapshot.clone()
+    }
+
+    /// The latest full view (a copy).
+    #[must_use]
+    pub fn view(&self) -> StationView {
+        lock(&self.shared.view).clone()
+    }
+
+    /// Sends a station command; false if the queue was full (counted) or the runtime
+    /// has stopped.
+    pub fn send(&self, cmd: StationCommand) -> bool {
+        self.command(RuntimeCommand::Station(cmd))
+    }
+
+    /// Sends any runtime command; false if the queue was full (counted) or the runtime
+    /// has stopped.
+    pub fn command(&self, cmd: RuntimeCommand) -> bool {
+        match self.tx.try_send(cmd) {
+            Ok(()) => true,
+            Err(TrySendError::Full(_)) => {
+                self.shared.commands_dropped.fetch_add(1, Ordering::Relaxed);
+                false
+            }
+            Err(TrySendError::Disconnected(_)) => false,
+        }
+    }
+
+    /// Commands dropped because the queue was full.
+    #[must_use]
+    pub fn commands_dropped(&self) -> u64 {
+        self.shared.commands_dropped.load(Ordering::Relaxed)
+    }
+
+    /// Copies the history samples `into` has not seen yet; returns how many.
+    pub fn sync_history(&self, into: &mut History) -> usize {
+        lock(&self.shared.feed).pull(into)
+    }
+
+    /// Tick timing statistics.
+    #[must_use]
+    pub fn tick_stats(&self) -> TickStats {
+        let mut s = lock(&self.shared.ticks).stats();
+        s.watchdog_trips = self.shared.watchdog_trips.load(Ordering::Relaxed);
+        s.watchdog_frames = self.shared.watchdog_frames.load(Ordering::Relaxed);
+        s.watchdog_max_gap_us = self.shared.watchdog_max_gap_us.load(Ordering::Relaxed);
+        s
+    }
+
+    /// Wall timestamps of the last ticks, µs of [`StationHandle::now_us`]'s clock.
+    #[must_use]
+    pub fn tick_times(&self) -> Vec<u64> {
+        lock(&self.shared.ticks).log()
+    }
+
+    /// The runtime clock now, µs.
+    #[must_use]
+    pub fn now_us(&self) -> u64 {
+        self.shared.clock.now_us()
+    }
+
+    /// Acknowledges an alarm (`None`: all).
+    pub fn ack_alarm(&self, kind: Option<AlarmKind>) -> bool {
+        self.command(RuntimeCommand::AckAlarm(kind))
+    }
+
+    /// Starts recording to `path`.
+    pub fn start_recording(&self, path: &Path) -> bool {
+        self.command(RuntimeCommand::StartRecording(path.to_path_buf()))
+    }
+
+    /// Stops recording.
+    pub fn stop_recording(&self) -> bool {
+        self.command(RuntimeCommand::StopRecording)
+    }
+
+    /// Whether the runtime is still running.
+    #[must_use]
+    pub fn is_running(&self) -> bool {
+        self.shared.running.load(Ordering::Relaxed)
+    }
+
+    /// Stops the threads and waits for them (a recording is finished first).
+    pub fn shutdown(mut self) {
+        self.stop();
+    }
+
+    fn stop(&mut self) {
+        // The queue may be full: the flag alone stops the loops too.
+        let _ = self.tx.try_send(RuntimeCommand::Shutdown);
+        self.shared.running.store(false, Ordering::Relaxed);
+        for t in self.threads.drain(..) {
+            let _ = t.join();
+        }
+    }
+}
+
+impl Drop for StationHandle {
+    fn drop(&mut self) {
+        self.stop();
+    }
+}
+
+/// Entry points.
+#[derive(Debug)]
+pub struct Runtime;
+
+impl Runtime {
+    /// Starts a live station (sim or serial) on its own threads; see the module docs.
+    ///
+    /// # Errors
+    /// [`RuntimeError`] if the configuration is refused, the models do not load, the
+    /// port does not open, or a thread cannot start.
+    pub fn start(cfg: RuntimeConfig) -> Result<StationHandle, RuntimeError> {
+        live::start(cfg, ModelSet::load_default()?)
+    }
+
+    /// Plays a recorded session through the view pipeline on its own thread (paused at
+    /// the start). Control with [`RuntimeCommand::Replay`].
+    ///
+    /// # Errors
+    /// [`RuntimeError::Session`] if the file does not open.
+    pub fn replay(path: &Path) -> Result<StationHandle, RuntimeError> {
+        replay::start(path, ModelSet::load_default()?)
+    }
+}
+
+pub(crate) fn command_channel() -> (SyncSender<RuntimeCommand>, Receiver<RuntimeCommand>) {
+    sync_channel(COMMAND_CAPACITY)
+}
+
+pub(crate) fn spawn_named(
+    name: &str,
+    f: impl FnOnce() + Send + 'static,
+) -> Result<JoinHandle<()>, RuntimeError> {
+    std::thread::Builder::new()
+        .name(name.into())
+        .spawn(f)
+        .map_err(|e| RuntimeError::Thread(e.to_string()))
+}

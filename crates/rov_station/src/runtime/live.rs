@@ -1,0 +1,303 @@
+//! The wall-clock driver of the live engine: control, rx, tx and watchdog threads (see
+//! the parent module docs).
+
+use std::sync::Arc;
+use std::sync::atomic::Ordering;
+use std::sync::mpsc::{Receiver, RecvTimeoutError, SyncSender, TryRecvError, sync_channel};
+use std::time::Duration;
+
+use firmware_proto::{ControlBlock, flags};
+use rov_control::ModelSet;
+use rov_driver::{
+    ByteSink, ByteSource, Link, MonoClock, PRO4_BAUD, SerialTransport, Transport, memory_pair,
+};
+use rov_vehicle::{RunnerConfig, Vehicle, VehicleConfig, VehicleRunner};
+
+use crate::runtime::engine::{Engine, Followup};
+use crate::runtime::view::Source;
+use crate::runtime::{
+    Connection, RuntimeCommand, RuntimeConfig, RuntimeError, Shared, StationHandle,
+    command_channel, lock, spawn_named,
+};
+
+/// Byte chunks queued from the rx thread to the control thread.
+const RX_CAPACITY: usize = 1024;
+/// Frames queued to the tx thread.
+const TX_CAPACITY: usize = 64;
+/// The control thread wakes this early for a tick and spins the rest, µs.
+const SPIN_US: u64 = 1_000;
+
+enum Rx {
+    Bytes(Vec<u8>, u64),
+    Failed(String),
+}
+
+pub(crate) fn start(cfg: RuntimeConfig, models: ModelSet) -> Result<StationHandle, RuntimeError> {
+    let period_us = cfg.period_us();
+    let clock = MonoClock::new();
+    let shared = Arc::new(Shared::new(period_us, clock));
+    let (cmd_tx, cmd_rx) = command_channel();
+    let mut link_cfg = cfg.link;
+    link_cfg.record_frames = true;
+    let link = Link::new(link_cfg)?;
+    let node = link.config().node;
+
+    // Transport (and the simulated vehicle on the other end in sim mode).
+    let (transport, source, vehicle): (Box<dyn Transport>, Source, Option<VehicleRunner>) =
+        match &cfg.connection {
+            Connection::Sim => {
+                let (station_end, vehicle_end) = memory_pair();
+                let vehicle = Vehicle::with_model3(VehicleConfig::default(), cfg.sim_seed)?;
+                let runner = rov_vehicle::runner::spawn(
+                    vehicle,
+                    Box::new(vehicle_end),
+                    RunnerConfig::default(),
+                );
+                (Box::new(station_end), Source::Sim, Some(runner))
+            }
+            Connection::Serial(path) => {
+                let port = SerialTransport::open(path, PRO4_BAUD)?;
+                (Box::new(port), Source::Serial(path.clone()), None)
+            }
+        };
+    let (source_half, sink_half) = transport.split()?;
+    let engine = Engine::new(cfg.clone(), models, Arc::clone(&shared), source)?;
+
+    let (rx_tx, rx_rx) = sync_channel::<Rx>(RX_CAPACITY);
+    let (tx_tx, tx_rx) = sync_channel::<Vec<u8>>(TX_CAPACITY);
+    let mut threads = Vec::new();
+    {
+        let shared = Arc::clone(&shared);
+        threads.push(spawn_named("station-rx", move || {
+            rx_loop(source_half, &rx_tx, &shared);
+        })?);
+    }
+    {
+        let shared = Arc::clone(&shared);
+        threads.push(spawn_named("station-tx", move || {
+            tx_loop(sink_half, &tx_rx, &shared);
+        })?);
+    }
+    {
+        let shared = Arc::clone(&shared);
+        let tx = tx_tx.clone();
+        let mut neutral = vec![0u8; 32];
+        let n = ControlBlock::ALL_STOP
+            .encode_request(node, flags::NONE, &mut neutral)
+            .unwrap_or(0);
+        neutral.truncate(n);
+        threads.push(spawn_named("station-watchdog", move || {
+            watchdog_loop(&shared, &tx, &neutral, period_us);
+        })?);
+    }
+    #[cfg(feature = "gamepad")]
+    if cfg.gamepad {
+        let shared = Arc::clone(&shared);
+        let cmds = cmd_tx.clone();
+        threads.push(spawn_named("station-gamepad", move || {
+            crate::runtime::gamepad::run(&shared, &cmds);
+        })?);
+    }
+    {
+        let shared = Arc::clone(&shared);
+        threads.push(spawn_named("station-control", move || {
+            control_loop(engine, link, &rx_rx, &tx_tx, &cmd_rx, &shared, period_us);
+            shared.running.store(false, Ordering::Relaxed);
+            if let Some(v) = vehicle {
+                let _ = v.stop();
+            }
+        })?);
+    }
+    Ok(StationHandle::new(shared, cmd_tx, threads))
+}
+
+fn rx_loop(mut source: Box<dyn ByteSource>, out: &SyncSender<Rx>, shared: &Shared) {
+    let mut buf = vec![0u8; 4096];
+    while shared.running.load(Ordering::Relaxed) {
+        match source.recv(&mut buf, Duration::from_millis(20)) {
+            Ok(0) => {}
+            Ok(n) => {
+                let t = shared.clock.now_us();
+                let bytes = buf.get(..n).unwrap_or_default().to_vec();
+                // A full queue means the control thread is stalled; wait for it rather
+                // than lose bytes (the watchdog covers the stall).
+                if out.send(Rx::Bytes(bytes, t)).is_err() {
+                    return;
+                }
+            }
+            Err(e) => {
+                let _ = out.send(Rx::Failed(e.to_string()));
+                return;
+            }
+        }
+    }
+}
+
+fn tx_loop(mut sink: Box<dyn ByteSink>, input: &Receiver<Vec<u8>>, shared: &Shared) {
+    while shared.running.load(Ordering::Relaxed) {
+        match input.recv_timeout(Duration::from_millis(50)) {
+            Ok(frame) => {
+                if sink.send(&frame).is_err() {
+                    return;
+                }
+            }
+            Err(RecvTimeoutError::Timeout) => {}
+            Err(RecvTimeoutError::Disconnected) => return,
+        }
+    }
+}
+
+/// G2: no tick completed within three periods → neutral frames every period until the
+/// ticks resume.
+fn watchdog_loop(shared: &Shared, tx: &SyncSender<Vec<u8>>, neutral: &[u8], period_us: u64) {
+    let poll = Duration::from_micros((period_us / 4).max(500));
+    let mut tripped = false;
+    let mut last_sent = 0u64;
+    while shared.running.load(Ordering::Relaxed) {
+        std::thread::sleep(poll);
+        let last = shared.last_tick_us.load(Ordering::Relaxed);
+        if last == 0 {
+            continue; // not started yet
+        }
+        let now = shared.clock.now_us();
+        if now.saturating_sub(last) > 3 * period_us {
+            if !tripped {
+                tripped = true;
+                shared.watchdog_trips.fetch_add(1, Ordering::Relaxed);
+                last_sent = 0;
+            }
+            if now.saturating_sub(last_sent) >= period_us && tx.try_send(neutral.to_vec()).is_ok() {
+                if last_sent == 0 {
+                    shared
+                        .watchdog_max_gap_us
+                        .fetch_max(now.saturating_sub(last), Ordering::Relaxed);
+                }
+                shared.watchdog_frames.fetch_add(1, Ordering::Relaxed);
+                last_sent = now;
+            }
+        } else {
+            tripped = false;
+        }
+    }
+}
+
+fn control_loop(
+    mut engine: Engine,
+    mut link: Link,
+    rx: &Receiver<Rx>,
+    tx: &SyncSender<Vec<u8>>,
+    cmds: &Receiver<RuntimeCommand>,
+    shared: &Shared,
+    period_us: u64,
+) {
+    let clock = shared.clock;
+    let mut next_tick = clock.now_us();
+    let mut transport_error: Option<String> = None;
+    loop {
+        // Wait for bytes or the next deadline. The control tick's wake-up is asked for
+        // SPIN_US early and the rest is spun, so scheduler wake-up latency does not make
+        // the tick late.
+        let now = clock.now_us();
+        let link_due = link.next_timeout().unwrap_or(u64::MAX);
+        let due = link_due.min(next_tick.saturating_sub(SPIN_US));
+        if due > now {
+            match rx.recv_timeout(Duration::from_micros(due - now)) {
+                Ok(Rx::Bytes(b, t)) => link.handle_input(&b, t),
+                Ok(Rx::Failed(e)) => transport_error = Some(e),
+                Err(RecvTimeoutError::Timeout) => {}
+                Err(RecvTimeoutError::Disconnected) => {
+                    transport_error.get_or_insert_with(|| "transport closed".into());
+                }
+            }
+        }
+        loop {
+            match rx.try_recv() {
+                Ok(Rx::Bytes(b, t)) => link.handle_input(&b, t),
+                Ok(Rx::Failed(e)) => transport_error = Some(e),
+                Err(TryRecvError::Empty | TryRecvError::Disconnected) => break,
+            }
+        }
+        if let Some(e) = transport_error.take() {
+            let now = clock.now_us();
+            engine.pipeline.push_event(format!(
+                "{:7.1} s  ALARM: transport failed: {e}",
+                now as f64 * 1e-6
+            ));
+        }
+        let now = clock.now_us();
+        link.handle_timeout(now);
+        pump(&mut engine, &mut link, tx, now);
+
+        // Commands.
+        let mut stop = false;
+        loop {
+            match cmds.try_recv() {
+                Ok(c) => match engine.apply(&mut link, c, clock.now_us()) {
+                    Followup::None => {}
+                    Followup::Shutdown => stop = true,
+                    Followup::Stall(d) => std::thread::sleep(d),
+                },
+                Err(TryRecvError::Empty) => break,
+                Err(TryRecvError::Disconnected) => {
+                    stop = true;
+                    break;
+                }
+            }
+        }
+        if stop || !shared.running.load(Ordering::Relaxed) {
+            break;
+        }
+
+        // The control tick, on its deadline.
+        let mut now = clock.now_us();
+        if now < next_tick && next_tick - now <= SPIN_US {
+            while now < next_tick {
+                std::hint::spin_loop();
+                now = clock.now_us();
+            }
+        }
+        if now >= next_tick {
+            engine.tick(&mut link, now);
+            pump(&mut engine, &mut link, tx, now);
+            let stats = {
+                let mut t = lock(&shared.ticks);
+                t.record(next_tick, now);
+                next_tick += period_us;
+                if now >= next_tick {
+                    // More than a period late: skip the lost deadlines (counted) and
+                    // keep the grid t0 + k·P.
+                    let behind = (now - next_tick) / period_us + 1;
+                    t.add_missed(behind);
+                    next_tick += behind * period_us;
+                }
+                t.set_watchdog(
+                    shared.watchdog_trips.load(Ordering::Relaxed),
+                    shared.watchdog_frames.load(Ordering::Relaxed),
+                    shared.watchdog_max_gap_us.load(Ordering::Relaxed),
+                );
+                t.stats()
+            };
+            shared.last_tick_us.store(clock.now_us(), Ordering::Relaxed);
+            engine.publish(Some(stats));
+        }
+    }
+    // Neutral on the way out, then finish the recording.
+    link.disarm();
+    let now = clock.now_us();
+    if let Some(f) = link.poll_transmit(now) {
+        let _ = tx.try_send(f.to_vec());
+    }
+    engine.finish(now);
+    engine.publish(None);
+}
+
+/// Hands due frames to the tx thread and feeds the link's events to the engine.
+fn pump(engine: &mut Engine, link: &mut Link, tx: &SyncSender<Vec<u8>>, now: u64) {
+    while let Some(frame) = link.poll_transmit(now) {
+        // The tx queue holds 64 frames; a full queue means the port is stuck.
+        let _ = tx.try_send(frame.to_vec());
+    }
+    while let Some(ev) = link.poll_event() {
+        engine.on_event(link, &ev, now);
+    }
+}

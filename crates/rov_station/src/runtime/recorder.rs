@@ -1,0 +1,222 @@
+//! The recorder: a thread that writes session records through `rov_session`'s
+//! [`SessionWriter`], fed by a bounded queue (overflow counted, never blocking the control
+//! loop). The writer's flush and fsync run on this thread, so disk latency never delays
+//! a control tick. The thread also flushes on a 100 ms wall timer, so a recording whose
+//! message stream stops (link lost) still loses at most 0.1 s when killed.
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::mpsc::{Receiver, RecvTimeoutError, SyncSender, TrySendError, sync_channel};
+use std::thread::JoinHandle;
+use std::time::Duration;
+
+use rov_session::{
+    AutopilotRecord, Direction, EventRecord, LinkRecord, NavRecord, ObserverRecord, PilotRecord,
+    SessionInfo, SessionWriter, StatusRecord, ThrustRecord, WriteSummary,
+};
+
+/// One item for the recorder; times are ns since the recording started.
+#[derive(Debug, Clone)]
+pub enum RecordItem {
+    /// A raw frame.
+    Raw(Direction, u64, Vec<u8>),
+    /// `/telemetry/nav`.
+    Nav(u64, NavRecord),
+    /// `/telemetry/status`.
+    Status(u64, StatusRecord),
+    /// `/command/thrust`.
+    Thrust(u64, ThrustRecord),
+    /// `/pilot/input`.
+    Pilot(u64, PilotRecord),
+    /// `/autopilot/state`.
+    Autopilot(u64, AutopilotRecord),
+    /// `/observer/state`.
+    Observer(u64, ObserverRecord),
+    /// `/link/stats`.
+    Link(u64, LinkRecord),
+    /// `/events`.
+    Event(u64, EventRecord),
+}
+
+/// Queue capacity, items (about 1.5 s of everything at 50 Hz).
+pub const QUEUE_CAPACITY: usize = 4096;
+
+#[derive(Debug, Default)]
+struct Counters {
+    queued: AtomicU64,
+    written: AtomicU64,
+    dropped: AtomicU64,
+    failed: AtomicBool,
+}
+
+/// A running recorder.
+#[derive(Debug)]
+pub struct Recorder {
+    path: PathBuf,
+    tx: Option<SyncSender<RecordItem>>,
+    counters: Arc<Counters>,
+    error: Arc<std::sync::Mutex<Option<String>>>,
+    join: Option<JoinHandle<Result<WriteSummary, String>>>,
+    started_us: u64,
+}
+
+impl Recorder {
+    /// Creates the file (header written and synced) and starts the thread. `started_us`
+    /// is the station time of the recording's t = 0.
+    ///
+    /// # Errors
+    /// The writer's error text if the file cannot be created.
+    pub fn start(path: &Path, info: &SessionInfo, started_us: u64) -> Result<Self, String> {
+        let writer = SessionWriter::create(path, info, 0).map_err(|e| e.to_string())?;
+        let (tx, rx) = sync_channel(QUEUE_CAPACITY);
+        let counters = Arc::new(Counters::default());
+        let error = Arc::new(std::sync::Mutex::new(None));
+        let c = Arc::clone(&counters);
+        let e = Arc::clone(&error);
+        let join = std::thread::Builder::new()
+            .name("station-recorder".into())
+            .spawn(move || run(writer, &rx, &c, &e))
+            .map_err(|e| format!("cannot start the recorder thread: {e}"))?;
+        Ok(Self {
+            path: path.to_path_buf(),
+            tx: Some(tx),
+            counters,
+            error,
+            join: Some(join),
+            started_us,
+        })
+    }
+
+    /// The file.
+    #[must_use]
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// Station time of t = 0, µs.
+    #[must_use]
+    pub const fn started_us(&self) -> u64 {
+        self.started_us
+    }
+
+    /// Recording time of a station time, ns.
+    #[must_use]
+    pub const fn t_ns(&self, now_us: u64) -> u64 {
+        now_us.saturating_sub(self.started_us).saturating_mul(1000)
+    }
+
+    /// Queues an item; a full queue drops it (counted).
+    pub fn send(&self, item: RecordItem) {
+        if let Some(tx) = &self.tx {
+            match tx.try_send(item) {
+                Ok(()) => {
+                    self.counters.queued.fetch_add(1, Ordering::Relaxed);
+                }
+                Err(TrySendError::Full(_) | TrySendError::Disconnected(_)) => {
+                    self.counters.dropped.fetch_add(1, Ordering::Relaxed);
+                }
+            }
+        }
+    }
+
+    /// Items queued so far (deterministic for a given run, unlike `written`).
+    #[must_use]
+    pub fn queued(&self) -> u64 {
+        self.counters.queued.load(Ordering::Relaxed)
+    }
+
+    /// Messages written so far.
+    #[must_use]
+    pub fn written(&self) -> u64 {
+        self.counters.written.load(Ordering::Relaxed)
+    }
+
+    /// Items dropped so far.
+    #[must_use]
+    pub fn dropped(&self) -> u64 {
+        self.counters.dropped.load(Ordering::Relaxed)
+    }
+
+    /// The last error, if writing failed.
+    #[must_use]
+    pub fn error(&self) -> Option<String> {
+        if !self.counters.failed.load(Ordering::Relaxed) {
+            return None;
+        }
+        self.error.lock().map_or(None, |e| e.clone())
+    }
+
+    /// Stops: drains the queue, writes the summary and syncs.
+    ///
+    /// # Errors
+    /// The writer's error text.
+    pub fn stop(mut self) -> Result<WriteSummary, String> {
+        self.tx = None;
+        match self.join.take() {
+            Some(j) => j
+                .join()
+                .unwrap_or_else(|_| Err("recorder thread panicked".into())),
+            None => Err("recorder already stopped".into()),
+        }
+    }
+}
+
+impl Drop for Recorder {
+    fn drop(&mut self) {
+        self.tx = None;
+        if let Some(j) = self.join.take() {
+            let _ = j.join();
+        }
+    }
+}
+
+fn write_item(w: &mut SessionWriter, item: &RecordItem) -> rov_session::Result<()> {
+    match item {
+        RecordItem::Raw(d, t, bytes) => w.write_raw(*d, *t, bytes),
+        RecordItem::Nav(t, r) => w.write(*t, r),
+        RecordItem::Status(t, r) => w.write(*t, r),
+        RecordItem::Thrust(t, r) => w.write(*t, r),
+        RecordItem::Pilot(t, r) => w.write(*t, r),
+        RecordItem::Autopilot(t, r) => w.write(*t, r),
+        RecordItem::Observer(t, r) => w.write(*t, r),
+        RecordItem::Link(t, r) => w.write(*t, r),
+        RecordItem::Event(t, r) => w.write(*t, r),
+    }
+}
+
+fn run(
+    mut w: SessionWriter,
+    rx: &Receiver<RecordItem>,
+    counters: &Counters,
+    error: &std::sync::Mutex<Option<String>>,
+) -> Result<WriteSummary, String> {
+    let fail = |e: String| {
+        counters.failed.store(true, Ordering::Relaxed);
+        if let Ok(mut g) = error.lock() {
+            *g = Some(e);
+        }
+    };
+    loop {
+        match rx.recv_timeout(Duration::from_millis(100)) {
+            Ok(item) => {
+                // Once writing failed the file is not extended (the error is shown).
+                if !counters.failed.load(Ordering::Relaxed) {
+                    match write_item(&mut w, &item) {
+                        Ok(()) => {
+                            counters.written.fetch_add(1, Ordering::Relaxed);
+                        }
+                        Err(e) => fail(e.to_string()),
+                    }
+                }
+            }
+            Err(RecvTimeoutError::Timeout) => {
+                if let Err(e) = w.flush() {
+                    fail(e.to_string());
+                }
+            }
+            Err(RecvTimeoutError::Disconnected) => break,
+        }
+    }
+    w.finish().map_err(|e| e.to_string())
+}

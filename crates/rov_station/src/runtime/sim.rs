@@ -1,0 +1,161 @@
+//! [`VirtualStation`]: the live engine on virtual time (the simulated Pro 4 through
+//! `rov_vehicle::SimLink`), stepped by the caller. Deterministic for a given seed and
+//! command sequence: GUI snapshot tests and benchmarks use it behind an ordinary
+//! [`StationHandle`].
+
+use std::sync::Arc;
+use std::sync::atomic::Ordering;
+use std::sync::mpsc::{Receiver, TryRecvError};
+
+use rov_control::ModelSet;
+use rov_driver::{Link, LinkEvent, MonoClock};
+use rov_vehicle::{SimApp, SimLink, Vehicle, VehicleConfig};
+
+use crate::runtime::engine::{Engine, Followup};
+use crate::runtime::view::Source;
+use crate::runtime::{
+    RuntimeCommand, RuntimeConfig, RuntimeError, Shared, StationHandle, command_channel, lock,
+};
+
+struct App {
+    engine: Engine,
+    cmds: Receiver<RuntimeCommand>,
+    shared: Arc<Shared>,
+    stopped: bool,
+}
+
+impl SimApp for App {
+    fn on_event(&mut self, link: &mut Link, _vehicle: &Vehicle, event: LinkEvent, now_us: u64) {
+        self.engine.on_event(link, &event, now_us);
+    }
+
+    fn on_tick(&mut self, link: &mut Link, _vehicle: &mut Vehicle, now_us: u64) {
+        loop {
+            match self.cmds.try_recv() {
+                Ok(c) => {
+                    if self.engine.apply(link, c, now_us) == Followup::Shutdown {
+                        self.stopped = true;
+                    }
+                }
+                Err(TryRecvError::Empty) => break,
+                Err(TryRecvError::Disconnected) => {
+                    self.stopped = true;
+                    break;
+                }
+            }
+        }
+        self.engine.tick(link, now_us);
+        let stats = {
+            let mut t = lock(&self.shared.ticks);
+            t.record(now_us, now_us);
+            t.stats()
+        };
+        self.shared.last_tick_us.store(now_us, Ordering::Relaxed);
+        self.engine.publish(Some(stats));
+    }
+}
+
+/// The live engine on virtual time; see the module docs.
+pub struct VirtualStation {
+    sim: SimLink,
+    app: App,
+}
+
+impl std::fmt::Debug for VirtualStation {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("VirtualStation")
+            .field("now_us", &self.sim.now_us())
+            .finish_non_exhaustive()
+    }
+}
+
+impl VirtualStation {
+    /// A station on the simulated Pro 4 at virtual time 0, and its handle. The
+    /// connection setting is ignored (always the simulator); no threads are started
+    /// (no gamepad, no watchdog: the caller is the clock).
+    ///
+    /// # Errors
+    /// [`RuntimeError`] if the configuration is refused or the models do not load.
+    pub fn new(cfg: RuntimeConfig) -> Result<(Self, StationHandle), RuntimeError> {
+        Self::with_models(cfg, ModelSet::load_default()?)
+    }
+
+    /// [`VirtualStation::new`] with given models.
+    ///
+    /// # Errors
+    /// [`RuntimeError`] if the configuration is refused.
+    pub fn with_models(
+        cfg: RuntimeConfig,
+        models: ModelSet,
+    ) -> Result<(Self, StationHandle), RuntimeError> {
+        let period_us = cfg.period_us();
+        let shared = Arc::new(Shared::new(period_us, MonoClock::new()));
+        let (tx, rx) = command_channel();
+        let mut link_cfg = cfg.link;
+        link_cfg.record_frames = true;
+        let link = Link::new(link_cfg)?;
+        let vehicle = Vehicle::with_model3(VehicleConfig::default(), cfg.sim_seed)?;
+        let engine = Engine::new(cfg, models, Arc::clone(&shared), Source::Sim)?;
+        let app = App {
+            engine,
+            cmds: rx,
+            shared: Arc::clone(&shared),
+            stopped: false,
+        };
+        let sim = SimLink::new(link, vehicle, period_us);
+        Ok((
+            Self { sim, app },
+            StationHandle::new(shared, tx, Vec::new()),
+        ))
+    }
+
+    /// Virtual time now, µs.
+    #[must_use]
+    pub fn now_us(&self) -> u64 {
+        self.sim.now_us()
+    }
+
+    /// Runs until virtual time `t_us`; commands sent through the handle are applied at
+    /// the next tick.
+    ///
+    /// # Errors
+    /// [`RuntimeError::Vehicle`] if the simulation fails.
+    pub fn advance_to(&mut self, t_us: u64) -> Result<(), RuntimeError> {
+        if self.app.stopped || t_us <= self.sim.now_us() {
+            return Ok(());
+        }
+        self.sim.run_until(t_us, &mut self.app)?;
+        Ok(())
+    }
+
+    /// Runs for `dt_s` seconds of virtual time.
+    ///
+    /// # Errors
+    /// [`RuntimeError::Vehicle`] if the simulation fails.
+    pub fn advance(&mut self, dt_s: f64) -> Result<(), RuntimeError> {
+        let dt_us = if dt_s.is_finite() && dt_s > 0.0 {
+            (dt_s * 1e6).round() as u64
+        } else {
+            0
+        };
+        self.advance_to(self.sim.now_us().saturating_add(dt_us))
+    }
+
+    /// The simulated vehicle (truth, for tests).
+    #[must_use]
+    pub fn vehicle(&self) -> &Vehicle {
+        &self.sim.vehicle
+    }
+
+    /// The simulated vehicle, mutable (fault injection in tests).
+    pub fn vehicle_mut(&mut self) -> &mut Vehicle {
+        &mut self.sim.vehicle
+    }
+
+    /// Finishes a recording in progress.
+    pub fn finish(&mut self) {
+        let now = self.sim.now_us();
+        self.app.engine.finish(now);
+        self.app.engine.publish(None);
+    }
+}

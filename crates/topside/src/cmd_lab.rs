@@ -1,0 +1,555 @@
+//! `topside lab`: the model lab — compare a model with measurements, see where it fails,
+//! learn which physical effect is missing, add it and watch the error fall.
+//!
+//! * `topside lab compare --model M --data F.csv [--data G.csv ...] [--effects ID,ID] [--json] [--plots DIR]`
+//! * `topside lab diagnose --model M --data TRAIN.csv [--data ...] --validate VAL.csv [--json] [--plots DIR]`
+//! * `topside lab add --model M --effects ID[,ID...] --data TRAIN.csv --validate VAL.csv [--json] [--save OUT.toml] [--plots DIR]`
+//! * `topside lab effects`, `topside lab models`
+//!
+//! M is `model1`, `model2`, `model3` or a saved extended-model TOML. Data files are
+//! measurement CSVs, MCAP sessions (`.mcap`, through `rov_session`), or the BlueROV2 tank
+//! CSVs of shared/real_data (recognised by their `ch5_surge` column and converted).
+//! `--json` prints one JSON document on stdout; the text report goes to stdout otherwise.
+
+use std::fs;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use anyhow::Context;
+use clap::{Args, Subcommand};
+use rov_lab::catalog::EffectId;
+use rov_lab::diagnose::{DiagnoseOptions, Status, diagnose};
+use rov_lab::lab::{AddReport, ChannelSummary, CompareReport, add, compare, diagnose_json};
+use rov_lab::model::{BaseKind, LabModel};
+use rov_lab::persist::{load_lab_model, save_extended_model};
+use rov_lab::plots::{comparison_png, error_fall_png, failure_pngs, residual_png};
+use rov_lab::{Run, parse_effect_list};
+
+/// Arguments of `topside lab`.
+#[derive(Debug, Args)]
+pub struct LabArgs {
+    #[command(subcommand)]
+    command: LabCommand,
+}
+
+#[derive(Debug, Subcommand)]
+enum LabCommand {
+    /// Compare a model (optionally with effects) with measured runs in three error views.
+    Compare(CompareArgs),
+    /// Calibrate the base, then rank the catalog effects by held-out evidence.
+    Diagnose(DiagnoseArgs),
+    /// Add effects to a model, refit, and show the held-out error before and after.
+    Add(AddArgs),
+    /// List the 17 catalog effects.
+    Effects(ListArgs),
+    /// List, for each base model, the catalog effects it already contains.
+    Models(ListArgs),
+}
+
+/// `topside lab compare`.
+#[derive(Debug, Args)]
+pub struct CompareArgs {
+    /// model1, model2, model3 or a saved extended-model TOML.
+    #[arg(long)]
+    pub model: String,
+    /// Measured runs (CSV or MCAP); repeat for several.
+    #[arg(long = "data", required = true)]
+    pub data: Vec<PathBuf>,
+    /// Effects to add (fitted on the same data), comma-separated IDs.
+    #[arg(long)]
+    pub effects: Option<String>,
+    /// Print JSON on stdout.
+    #[arg(long)]
+    pub json: bool,
+    /// Write PNG plots into this directory.
+    #[arg(long)]
+    pub plots: Option<PathBuf>,
+}
+
+/// `topside lab diagnose`.
+#[derive(Debug, Args)]
+pub struct DiagnoseArgs {
+    /// model1, model2, model3 or a saved extended-model TOML.
+    #[arg(long)]
+    pub model: String,
+    /// Training runs; repeat for several.
+    #[arg(long = "data", required = true)]
+    pub data: Vec<PathBuf>,
+    /// Held-out runs; repeat for several.
+    #[arg(long = "validate", required = true)]
+    pub validate: Vec<PathBuf>,
+    /// Print JSON on stdout.
+    #[arg(long)]
+    pub json: bool,
+    /// Write PNG plots into this directory.
+    #[arg(long)]
+    pub plots: Option<PathBuf>,
+}
+
+/// `topside lab add`.
+#[derive(Debug, Args)]
+pub struct AddArgs {
+    /// model1, model2, model3 or a saved extended-model TOML.
+    #[arg(long)]
+    pub model: String,
+    /// Effects to add, comma-separated IDs, in order.
+    #[arg(long, required = true)]
+    pub effects: String,
+    /// Training runs; repeat for several.
+    #[arg(long = "data", required = true)]
+    pub data: Vec<PathBuf>,
+    /// Held-out runs; repeat for several.
+    #[arg(long = "validate", required = true)]
+    pub validate: Vec<PathBuf>,
+    /// Print JSON on stdout.
+    #[arg(long)]
+    pub json: bool,
+    /// Save the extended model as TOML (loadable by sim, hold and the lab).
+    #[arg(long)]
+    pub save: Option<PathBuf>,
+    /// Write PNG plots into this directory.
+    #[arg(long)]
+    pub plots: Option<PathBuf>,
+}
+
+/// `topside lab effects|models`.
+#[derive(Debug, Args)]
+pub struct ListArgs {
+    /// Print JSON on stdout.
+    #[arg(long)]
+    pub json: bool,
+}
+
+const THREADS: usize = 2;
+
+/// Loads a model argument: a base name or a saved TOML.
+pub fn load_model_arg(arg: &str) -> anyhow::Result<LabModel> {
+    if let Some(kind) = BaseKind::parse(arg) {
+        return Ok(LabModel::default_base(kind)?);
+    }
+    let text = fs::read_to_string(arg).with_context(|| {
+        format!("--model {arg}: neither model1/model2/model3 nor a readable TOML file")
+    })?;
+    Ok(load_lab_model(&text, arg)?)
+}
+
+/// Loads one run: measurement CSV, MCAP session, or BlueROV2 tank CSV.
+pub fn load_run(path: &Path) -> anyhow::Result<Run> {
+    let label = path
+        .file_name()
+        .map(|n| n.to_string_lossy().to_string())
+        .unwrap_or_else(|| path.display().to_string());
+    if path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("mcap"))
+    {
+        let session = rov_session::open(path)
+            .with_context(|| format!("opening session {}", path.display()))?;
+        let (series, _, warnings) = rov_session::measurements(&session)
+            .with_context(|| format!("reading measurements from {}", path.display()))?;
+        for w in warnings {
+            eprintln!("warning: {label}: {w}");
+        }
+        return Ok(Run::from_series(&series, &label)?);
+    }
+    let text = fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+    let first = text.lines().next().unwrap_or("");
+    if first.split(',').any(|c| c.trim() == "ch5_surge") {
+        let series = rov_lab::bluerov::bluerov_to_series(&text, &label)?;
+        eprintln!(
+            "note: {label}: BlueROV2 tank data converted (surge/yaw demands → port/starboard, heave → vertical; see rov_lab::bluerov)"
+        );
+        return Ok(Run::from_series(&series, &label)?);
+    }
+    let series = rov_types::MeasurementSeries::parse_csv(&text, &label)?;
+    for w in &series.warnings {
+        eprintln!("warning: {w}");
+    }
+    Ok(Run::from_series(&series, &label)?)
+}
+
+fn load_runs(paths: &[PathBuf]) -> anyhow::Result<Vec<Run>> {
+    paths.iter().map(|p| load_run(p)).collect()
+}
+
+fn write_pngs(dir: &Path, pngs: Vec<(String, Vec<u8>)>) -> anyhow::Result<()> {
+    fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    for (name, bytes) in pngs {
+        let p = dir.join(&name);
+        fs::write(&p, bytes).with_context(|| format!("writing {}", p.display()))?;
+        eprintln!("wrote {}", p.display());
+    }
+    Ok(())
+}
+
+fn fmt_opt(x: Option<f64>) -> String {
+    x.map_or_else(|| "  low exc.".into(), |v| format!("{v:9.1}"))
+}
+
+fn print_summary_table(title: &str, m: &std::collections::BTreeMap<String, ChannelSummary>) {
+    println!("{title}");
+    println!(
+        "  {:<10} {:>9} {:>10} {:>9} {:>10} {:>9}",
+        "channel", "fit %", "RMSE", "fit % fr", "RMSE fr", "noise"
+    );
+    for (k, c) in m {
+        println!(
+            "  {:<10} {} {:>10.4} {} {:>10.4} {:>9.4}",
+            k,
+            fmt_opt(c.fit_pct),
+            c.rmse,
+            fmt_opt(c.fit_pct_free_run),
+            c.rmse_free_run,
+            c.noise
+        );
+    }
+}
+
+fn run_compare(a: CompareArgs) -> anyhow::Result<ExitCode> {
+    let model = load_model_arg(&a.model)?;
+    let runs = load_runs(&a.data)?;
+    let effects = match &a.effects {
+        Some(s) => parse_effect_list(s)?,
+        None => Vec::new(),
+    };
+    let report = compare(&model, &a.model, &runs, &effects, THREADS)?;
+    if let Some(dir) = &a.plots {
+        let mut pngs = Vec::new();
+        for (i, run) in runs.iter().enumerate() {
+            let (f, s) = (&report.free_run[i], &report.shooting[i]);
+            pngs.push(comparison_png(
+                run,
+                &[("free run", f), ("multiple shooting", s)],
+                &a.model.replace(['/', '\\'], "_"),
+            )?);
+            pngs.push(residual_png(
+                run,
+                &[("free run", f), ("multiple shooting", s)],
+                "compare",
+            )?);
+        }
+        pngs.extend(failure_pngs(&report.failures, "compare")?);
+        write_pngs(dir, pngs)?;
+    }
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&report)?);
+    } else {
+        print_compare(&report);
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn print_compare(r: &CompareReport) {
+    println!(
+        "model {}{}",
+        r.model,
+        if r.effects.is_empty() {
+            String::new()
+        } else {
+            format!(" + {}", r.effects.join(" + "))
+        }
+    );
+    for n in &r.notes {
+        println!("note: {n}");
+    }
+    for (view, vm) in &r.pooled {
+        println!("pooled, {view}:");
+        for (ch, m) in &vm.channels {
+            println!(
+                "  {:<10} fit {} %  RMSE {:.4}  max {:.4}  bias {:+.4}  drift {:+.5}/s",
+                ch,
+                fmt_opt(m.fit_pct),
+                m.rmse,
+                m.max_abs,
+                m.bias,
+                m.drift_per_s
+            );
+        }
+    }
+    if !r.not_predicted.is_empty() {
+        println!("not predicted by the model: {}", r.not_predicted.join(", "));
+    }
+    for f in &r.failures {
+        println!("where {} fails (multiple shooting):", f.channel);
+        let mut bins = f.by_command.clone();
+        bins.sort_by(|a, b| b.mean.abs().total_cmp(&a.mean.abs()));
+        for b in bins.iter().take(4) {
+            println!(
+                "  {:<22} mean {:+.4} ± {:.4} (n {})",
+                b.label, b.mean, b.ci95, b.n
+            );
+        }
+        for w in f.worst_windows.iter().take(3) {
+            println!(
+                "  worst window {} {:.1}–{:.1} s: RMSE {:.4}, bias {:+.4}",
+                w.run, w.t_start_s, w.t_end_s, w.rmse, w.bias
+            );
+        }
+        let cross: Vec<String> = f
+            .cross_correlation
+            .iter()
+            .filter(|c| c.significant_lags.iter().any(|l| *l > 0))
+            .map(|c| c.with.clone())
+            .collect();
+        println!(
+            "  residual autocorrelation outside the 99 % band at {:.0} % of lags{}",
+            f.autocorrelation_outside * 100.0,
+            if cross.is_empty() {
+                String::new()
+            } else {
+                format!(
+                    "; correlated with past {} (unmodelled input dynamics)",
+                    cross.join(", ")
+                )
+            }
+        );
+    }
+}
+
+fn run_diagnose(a: DiagnoseArgs) -> anyhow::Result<ExitCode> {
+    let model = load_model_arg(&a.model)?;
+    let train = load_runs(&a.data)?;
+    let val = load_runs(&a.validate)?;
+    let opts = DiagnoseOptions {
+        threads: THREADS,
+        ..Default::default()
+    };
+    let d = diagnose(&model, &a.model, &train, &val, &opts)?;
+    if let Some(dir) = &a.plots {
+        let base = rov_lab::evaluate::evaluate(&d.calibrated, &val)?;
+        let fin = rov_lab::evaluate::evaluate(&d.final_model, &val)?;
+        let mut pngs = Vec::new();
+        for (i, run) in val.iter().enumerate() {
+            let mut preds = vec![("calibrated base", &base.shooting[i])];
+            if !d.accepted.is_empty() {
+                preds.push(("with findings", &fin.shooting[i]));
+            }
+            pngs.push(comparison_png(run, &preds, "diagnose")?);
+            pngs.push(residual_png(run, &preds, "diagnose")?);
+        }
+        let failures: Vec<_> = rov_dynamics::models::Channel::ALL
+            .iter()
+            .filter_map(|c| rov_lab::analysis::channel_failure(&val, &base.shooting, *c))
+            .collect();
+        pngs.extend(failure_pngs(&failures, "diagnose_base")?);
+        let j = diagnose_json(&d);
+        pngs.push(error_fall_png(&j.error_fall, "diagnose")?);
+        write_pngs(dir, pngs)?;
+    }
+    let j = diagnose_json(&d);
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&j)?);
+        return Ok(ExitCode::SUCCESS);
+    }
+    println!("model {} — {}", j.model, j.summary);
+    print_summary_table(
+        "baseline (calibrated base on the held-out data; fit/RMSE with multiple shooting, fr = free run):",
+        &j.baseline.channels,
+    );
+    if !j.not_predicted.is_empty() {
+        println!("not predicted by the model: {}", j.not_predicted.join(", "));
+    }
+    println!("findings, best first:");
+    for (i, f) in j.findings.iter().enumerate() {
+        let status = match f.status {
+            Status::Significant => "SIGNIFICANT",
+            Status::Ambiguous => "ambiguous",
+            Status::NotSignificant => "not significant",
+            Status::Screened => "screened",
+            Status::NotTestable => "not testable",
+            Status::NotApplicable => "not applicable",
+            Status::Contained => "contained",
+        };
+        let red: Vec<String> = f
+            .validation_rmse_reduction_pct
+            .iter()
+            .map(|(k, v)| format!("{k} {v:+.0} %"))
+            .collect();
+        println!(
+            "{:>2}. {:<22} {:<15}{}{}",
+            i + 1,
+            f.effect,
+            status,
+            if f.contained {
+                " (refit of a contained effect)"
+            } else {
+                ""
+            },
+            if red.is_empty() {
+                String::new()
+            } else {
+                format!(" held-out RMSE change ({}): {}", f.view, red.join(", "))
+            }
+        );
+        println!("      {}", f.explanation);
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn print_add(r: &AddReport) {
+    println!("model {} + {}", r.model, r.effects.join(" + "));
+    if !r.refitted_contained.is_empty() {
+        println!(
+            "already contained (refitted, not added): {}",
+            r.refitted_contained.join(", ")
+        );
+    }
+    print_summary_table("before (calibrated base, held-out):", &r.before);
+    print_summary_table("after (held-out):", &r.after);
+    println!("held-out RMSE reduction (multiple shooting / free run):");
+    for (k, v) in &r.rmse_reduction_pct {
+        println!(
+            "  {:<10} {:+.1} % / {:+.1} %",
+            k,
+            v,
+            r.rmse_reduction_pct_free_run.get(k).copied().unwrap_or(0.0)
+        );
+    }
+    println!("error fall (held-out RMSE, multiple shooting):");
+    for s in &r.error_fall {
+        let v: Vec<String> = s.rmse.iter().map(|(k, x)| format!("{k} {x:.4}")).collect();
+        println!("  {:<28} {}", s.label, v.join("  "));
+    }
+    println!("fitted parameters:");
+    for p in &r.params {
+        println!("  {:<36} {:.5} ± {:.5} {}", p.key, p.value, p.std, p.unit);
+    }
+}
+
+fn run_add(a: AddArgs) -> anyhow::Result<ExitCode> {
+    let model = load_model_arg(&a.model)?;
+    let effects = parse_effect_list(&a.effects)?;
+    let train = load_runs(&a.data)?;
+    let val = load_runs(&a.validate)?;
+    let r = add(&model, &a.model, &effects, &train, &val, THREADS)?;
+    if let Some(path) = &a.save
+        && let Some(m) = &r.model_fitted
+    {
+        let text = save_extended_model(
+            m,
+            &format!("fitted by `topside lab add` on {} run(s)", train.len()),
+        );
+        fs::write(path, text).with_context(|| format!("writing {}", path.display()))?;
+        eprintln!("saved {}", path.display());
+    }
+    if let Some(dir) = &a.plots {
+        let mut pngs = Vec::new();
+        if let (Some(first), Some(last)) = (r.evaluations.first(), r.evaluations.last()) {
+            for (i, run) in val.iter().enumerate() {
+                let preds = [("before", &first.shooting[i]), ("after", &last.shooting[i])];
+                pngs.push(comparison_png(run, &preds, "add")?);
+                pngs.push(residual_png(run, &preds, "add")?);
+            }
+        }
+        pngs.push(error_fall_png(&r.error_fall, "add")?);
+        write_pngs(dir, pngs)?;
+    }
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&r)?);
+    } else {
+        print_add(&r);
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+#[derive(serde::Serialize)]
+struct EffectRow {
+    id: &'static str,
+    code: &'static str,
+    group: rov_lab::catalog::EffectGroup,
+    term: &'static str,
+    params: Vec<String>,
+    signature: &'static str,
+    needs: &'static str,
+}
+
+fn run_effects(a: ListArgs) -> anyhow::Result<ExitCode> {
+    let rows: Vec<EffectRow> = EffectId::ALL
+        .iter()
+        .map(|e| {
+            let i = e.info();
+            EffectRow {
+                id: i.key,
+                code: i.code,
+                group: i.group,
+                term: i.term,
+                params: rov_lab::params::effect_params(*e)
+                    .iter()
+                    .map(|p| format!("{} [{}]", p.key(), p.meta().unit))
+                    .collect(),
+                signature: i.signature,
+                needs: i.needs,
+            }
+        })
+        .collect();
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&rows)?);
+    } else {
+        for r in rows {
+            println!("{} ({}, {:?})", r.id, r.code, r.group);
+            println!("    term:      {}", r.term);
+            println!("    params:    {}", r.params.join(", "));
+            println!("    signature: {}", r.signature);
+            println!("    needs:     {}", r.needs);
+        }
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+#[derive(serde::Serialize)]
+struct ModelRow {
+    model: &'static str,
+    contains: Vec<&'static str>,
+    not_applicable: Vec<(&'static str, &'static str)>,
+    calibrated: Vec<String>,
+}
+
+fn run_models(a: ListArgs) -> anyhow::Result<ExitCode> {
+    let rows: Vec<ModelRow> = BaseKind::ALL
+        .iter()
+        .map(|k| ModelRow {
+            model: k.name(),
+            contains: EffectId::ALL
+                .iter()
+                .filter(|e| k.contains(**e))
+                .map(|e| e.key())
+                .collect(),
+            not_applicable: EffectId::ALL
+                .iter()
+                .filter_map(|e| k.not_applicable(*e).map(|r| (e.key(), r)))
+                .collect(),
+            calibrated: k.calibration_params().iter().map(|p| p.key()).collect(),
+        })
+        .collect();
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&rows)?);
+    } else {
+        for r in rows {
+            println!("{}", r.model);
+            println!(
+                "    contains (refitted, never proposed as an addition): {}",
+                if r.contains.is_empty() {
+                    "none".into()
+                } else {
+                    r.contains.join(", ")
+                }
+            );
+            for (e, why) in &r.not_applicable {
+                println!("    not applicable: {e} — {why}");
+            }
+            println!("    calibrated: {}", r.calibrated.join(", "));
+        }
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// Runs `topside lab`.
+pub fn run(args: LabArgs) -> anyhow::Result<ExitCode> {
+    match args.command {
+        LabCommand::Compare(a) => run_compare(a),
+        LabCommand::Diagnose(a) => run_diagnose(a),
+        LabCommand::Add(a) => run_add(a),
+        LabCommand::Effects(a) => run_effects(a),
+        LabCommand::Models(a) => run_models(a),
+    }
+}

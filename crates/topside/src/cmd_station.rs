@@ -1,0 +1,73 @@
+//! `topside` with no subcommand: the station window.
+//!
+//! * No arguments: the simulated Pro 4, in-process.
+//! * `--port PATH`: a real Pro 4 on a serial port (if the port does not open, the window
+//!   still opens, on the Connection tab, with the error shown).
+//! * Hidden `--screenshot PATH --screenshot-after-s N`: after N seconds the window takes a
+//!   screenshot of itself (eframe viewport screenshot), saves it as PNG and closes; the
+//!   exit status says whether the PNG was written (used by the Xvfb test).
+//!
+//! The control settings come from `config/station.toml` when it exists in the working
+//! directory (the built-in defaults otherwise); recordings go to `./recordings/`.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::sync::atomic::Ordering;
+
+use anyhow::Context as _;
+use rov_control::ControlConfig;
+use rov_gui::{RealBackend, ScreenshotRequest, StationApp, Tab};
+use rov_station::runtime::{Connection, Runtime, RuntimeConfig};
+
+/// The station's configuration file, relative to the working directory.
+const CONFIG_PATH: &str = "config/station.toml";
+
+fn config(port: Option<String>) -> anyhow::Result<RuntimeConfig> {
+    let (control, text) = match std::fs::read_to_string(CONFIG_PATH) {
+        Ok(text) => (
+            ControlConfig::from_toml_str(&text, CONFIG_PATH)
+                .with_context(|| format!("reading {CONFIG_PATH}"))?,
+            text,
+        ),
+        Err(_) => (ControlConfig::default(), String::new()),
+    };
+    Ok(RuntimeConfig {
+        connection: port.map_or(Connection::Sim, Connection::Serial),
+        control,
+        config_toml: text,
+        ..RuntimeConfig::default()
+    })
+}
+
+/// Opens the station window; see the module docs.
+pub fn run_station(
+    port: Option<String>,
+    screenshot: Option<(PathBuf, f64)>,
+) -> anyhow::Result<ExitCode> {
+    let cfg = config(port)?;
+    let backend = RealBackend::new(cfg.clone(), PathBuf::from("recordings"));
+    let (live, error) = match Runtime::start(cfg.clone()) {
+        Ok(h) => (Some(h), None),
+        Err(e) => (None, Some(format!("cannot start the station: {e}"))),
+    };
+    let mut app = StationApp::new(Box::new(backend), live);
+    if let Some(e) = error {
+        eprintln!("warning: {e}");
+        app.set_message(e);
+        app.set_tab(Tab::Connection);
+    }
+    let mut saved = None;
+    if let Some((path, after_s)) = screenshot {
+        let req = ScreenshotRequest::new(path, after_s);
+        saved = Some(req.saved_flag());
+        app = app.with_screenshot(req);
+    }
+    rov_gui::run_native(app).map_err(|e| anyhow::anyhow!("cannot open the window: {e}"))?;
+    match saved {
+        Some(flag) if !flag.load(Ordering::Relaxed) => {
+            eprintln!("error: the screenshot was not saved");
+            Ok(ExitCode::from(1))
+        }
+        _ => Ok(ExitCode::SUCCESS),
+    }
+}

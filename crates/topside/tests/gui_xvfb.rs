@@ -1,0 +1,112 @@
+//! The real `topside` binary under Xvfb: the station window opens on the simulated
+//! vehicle, takes a screenshot of itself after a few seconds (hidden `--screenshot` and
+//! `--screenshot-after-s` options), saves it as PNG and exits 0. The PNG must have the
+//! window's size, not be blank, and show the instruments: the horizon's sky and ground,
+//! the dark instrument background and the green SAFE / link colours.
+//!
+//! Needs `xvfb-run` (installed by `scripts/setup.sh`); without it the test fails and
+//! says so.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+fn xvfb_run() -> PathBuf {
+    let found = std::env::var_os("PATH").and_then(|paths| {
+        std::env::split_paths(&paths)
+            .map(|p| p.join("xvfb-run"))
+            .find(|p| p.is_file())
+    });
+    found.unwrap_or_else(|| {
+        panic!("xvfb-run is not installed: run scripts/setup.sh (it installs xvfb and the Vulkan/GL CPU drivers)")
+    })
+}
+
+fn workspace_root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+/// Counts pixels within `tol` of a colour.
+fn count(px: &[u8], rgb: [u8; 3], tol: i32) -> usize {
+    px.chunks_exact(4)
+        .filter(|p| (0..3).all(|i| (i32::from(p[i]) - i32::from(rgb[i])).abs() <= tol))
+        .count()
+}
+
+#[test]
+fn the_station_window_renders_under_xvfb_and_screenshots_itself() {
+    let xvfb = xvfb_run();
+    let out = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("station_xvfb.png");
+    let _ = std::fs::remove_file(&out);
+    let mut child = Command::new(xvfb)
+        .args(["-a", "-s", "-screen 0 1280x800x24"])
+        .arg(env!("CARGO_BIN_EXE_topside"))
+        .arg("--screenshot")
+        .arg(&out)
+        .args(["--screenshot-after-s", "5"])
+        .current_dir(workspace_root())
+        .env("XDG_RUNTIME_DIR", std::env::temp_dir())
+        .env_remove("WAYLAND_DISPLAY")
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("start xvfb-run");
+    let t0 = Instant::now();
+    let status = loop {
+        if let Some(s) = child.try_wait().unwrap() {
+            break s;
+        }
+        if t0.elapsed() > Duration::from_secs(120) {
+            let _ = child.kill();
+            panic!("topside did not exit within 120 s");
+        }
+        std::thread::sleep(Duration::from_millis(100));
+    };
+    let output = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(status.success(), "topside failed ({status}):\n{stderr}");
+    assert!(out.is_file(), "no screenshot written:\n{stderr}");
+
+    let (w, h, px) = rov_gui::screenshot::load_png(&out).unwrap();
+    assert_eq!((w, h), (1280, 800), "window size");
+    // Not blank: many distinct colours.
+    let mut colours: Vec<[u8; 3]> = px.chunks_exact(4).map(|p| [p[0], p[1], p[2]]).collect();
+    colours.sort_unstable();
+    colours.dedup();
+    assert!(
+        colours.len() > 200,
+        "only {} colours: blank window?",
+        colours.len()
+    );
+    let n = (w * h) as usize;
+    // The artificial horizon: sky and ground, each a sizeable area.
+    let sky = count(&px, [40, 110, 190], 6);
+    let ground = count(&px, [120, 80, 40], 6);
+    assert!(sky > n / 50, "sky pixels {sky}");
+    assert!(ground > n / 50, "ground pixels {ground}");
+    // The sky is above the ground (the vehicle is level at start).
+    let row_of = |rgb: [u8; 3]| {
+        let rows: Vec<usize> = px
+            .chunks_exact(4)
+            .enumerate()
+            .filter(|(_, p)| (0..3).all(|i| (i32::from(p[i]) - i32::from(rgb[i])).abs() <= 6))
+            .map(|(i, _)| i / w as usize)
+            .collect();
+        rows.iter().sum::<usize>() / rows.len().max(1)
+    };
+    assert!(row_of([40, 110, 190]) < row_of([120, 80, 40]));
+    // Instrument background and the green of SAFE / a connected link.
+    assert!(
+        count(&px, [18, 22, 28], 3) > n / 100,
+        "instrument background"
+    );
+    assert!(
+        count(&px, [40, 180, 70], 30) > 50,
+        "green status (SAFE, link connected)"
+    );
+    eprintln!(
+        "screenshot {} ({w}x{h}, {} colours, sky {sky}, ground {ground})",
+        out.display(),
+        colours.len()
+    );
+}
