@@ -65,6 +65,24 @@ pub struct HoldSpec {
     pub seed: u64,
     /// Control configuration (gains, limits, observer noise).
     pub control: ControlConfig,
+    /// The simulated vehicle's dynamics: `None` for model3 as configured, or another
+    /// model (for example one the model lab extended and saved).
+    pub vehicle: Option<VehicleDynamics>,
+}
+
+/// A vehicle model for the simulated vehicle of a hold run, with a label for reports.
+#[derive(Debug, Clone)]
+pub struct VehicleDynamics {
+    /// Where the model came from (a file name).
+    pub label: String,
+    /// The model.
+    pub model: Box<dyn rov_dynamics::VehicleModel>,
+}
+
+impl PartialEq for VehicleDynamics {
+    fn eq(&self, other: &Self) -> bool {
+        self.label == other.label
+    }
 }
 
 impl HoldSpec {
@@ -82,6 +100,7 @@ impl HoldSpec {
             observer: true,
             seed: 1,
             control: ControlConfig::default(),
+            vehicle: None,
         }
     }
 }
@@ -323,7 +342,10 @@ impl App<'_> {
 
 /// Builds the simulated vehicle of a hold run.
 fn build_vehicle(spec: &HoldSpec) -> Result<Vehicle, HoldError> {
-    let mut cfg = SimConfig::default_model3()?;
+    let mut cfg = match &spec.vehicle {
+        Some(v) => SimConfig::with_model(v.model.clone()),
+        None => SimConfig::default_model3()?,
+    };
     cfg.initial = InitialConditions::at_rest(spec.start_depth_m, spec.start_heading_deg);
     if spec.disturbance == Disturbance::Current {
         cfg.current = CurrentModel::Constant {

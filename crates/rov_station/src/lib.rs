@@ -22,7 +22,10 @@ pub mod metrics;
 pub mod runtime;
 
 pub use core::{CommandError, Snapshot, StationCommand, StationCore};
-pub use hold::{Disturbance, HoldError, HoldReport, HoldSpec, HoldTrace, run_hold, run_hold_with};
+pub use hold::{
+    Disturbance, HoldError, HoldReport, HoldSpec, HoldTrace, VehicleDynamics, run_hold,
+    run_hold_with,
+};
 pub use runtime::{
     Connection, Runtime, RuntimeCommand, RuntimeConfig, RuntimeError, StationHandle, StationView,
     VirtualReplay, VirtualStation,

@@ -103,6 +103,11 @@ pub struct RuntimeConfig {
     pub sim_seed: u64,
     /// Keyboard sticks older than this count as released, µs.
     pub keyboard_timeout_us: u64,
+    /// Recording waits for the writer instead of dropping messages when its queue is
+    /// full. Off for live dives (the control loop must never wait on the disk); on for
+    /// virtual-time runs, which have no real-time loop to protect
+    /// ([`VirtualStation`] switches it on).
+    pub record_blocking: bool,
 }
 
 impl Default for RuntimeConfig {
@@ -118,6 +123,7 @@ impl Default for RuntimeConfig {
             gamepad: true,
             sim_seed: 1,
             keyboard_timeout_us: 300_000,
+            record_blocking: false,
         }
     }
 }

@@ -1,9 +1,10 @@
 //! `topside hold`: depth and heading hold closed through the mock link and the simulated
 //! vehicle on virtual time; prints the step-response metrics of the true state.
 
+use anyhow::Context as _;
 use clap::{Args, ValueEnum};
 use rov_control::ModelChoice;
-use rov_station::{Disturbance, HoldSpec, run_hold};
+use rov_station::{Disturbance, HoldSpec, VehicleDynamics, run_hold};
 
 /// Feedforward model.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -70,6 +71,11 @@ pub struct HoldArgs {
     /// Seed of the simulated sensor noise.
     #[arg(long, default_value_t = 1)]
     seed: u64,
+    /// The simulated vehicle's dynamics: a model file (for example one the model lab
+    /// extended and saved with `topside lab add --save`, or config/models/model3.toml).
+    /// Default: model3 as configured.
+    #[arg(long, value_name = "FILE.toml")]
+    vehicle: Option<std::path::PathBuf>,
     /// Print the report as JSON on stdout.
     #[arg(long)]
     json: bool,
@@ -94,6 +100,13 @@ pub fn run(args: HoldArgs) -> anyhow::Result<std::process::ExitCode> {
     spec.feedforward = !args.no_feedforward;
     spec.observer = args.observer == OnOff::On;
     spec.seed = args.seed;
+    if let Some(path) = &args.vehicle {
+        let text =
+            std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+        let label = path.display().to_string();
+        let model = rov_lab::load_extended_model(&text, &label)?;
+        spec.vehicle = Some(VehicleDynamics { label, model });
+    }
     let (report, _trace) = run_hold(&spec)?;
     if args.json {
         println!("{}", serde_json::to_string(&report)?);

@@ -19,6 +19,8 @@ enum SimCommand {
     Paper(PaperArgs),
     /// Run a case of a Fossen reference parameter file and write its trajectory CSV.
     Reference(ReferenceArgs),
+    /// Run any model (a base model or a saved extended one) on a measured run's commands.
+    Run(crate::cmd_sim_run::RunArgs),
 }
 
 /// `topside sim paper --out DIR`
@@ -78,5 +80,6 @@ pub fn run(args: SimArgs) -> anyhow::Result<std::process::ExitCode> {
     match args.command {
         SimCommand::Paper(a) => cmd_sim_paper::run(a),
         SimCommand::Reference(a) => cmd_sim_reference::run(a),
+        SimCommand::Run(a) => crate::cmd_sim_run::run(a),
     }
 }

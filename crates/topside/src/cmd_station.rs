@@ -8,7 +8,9 @@
 //!   exit status says whether the PNG was written (used by the Xvfb test).
 //!
 //! The control settings come from `config/station.toml` when it exists in the working
-//! directory (the built-in defaults otherwise); recordings go to `./recordings/`.
+//! directory (the built-in defaults otherwise). Every session is recorded from the
+//! moment the station starts, to `./recordings/session-<unix time>.mcap` (`--recordings DIR` elsewhere; REC
+//! stops and restarts it; `--no-record` starts without recording).
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -42,14 +44,34 @@ fn config(port: Option<String>) -> anyhow::Result<RuntimeConfig> {
 /// Opens the station window; see the module docs.
 pub fn run_station(
     port: Option<String>,
+    record_to: Option<PathBuf>,
     screenshot: Option<(PathBuf, f64)>,
 ) -> anyhow::Result<ExitCode> {
     let cfg = config(port)?;
-    let backend = RealBackend::new(cfg.clone(), PathBuf::from("recordings"));
+    let recordings = record_to
+        .clone()
+        .unwrap_or_else(|| PathBuf::from("recordings"));
+    let backend = RealBackend::new(cfg.clone(), recordings.clone());
     let (live, error) = match Runtime::start(cfg.clone()) {
         Ok(h) => (Some(h), None),
         Err(e) => (None, Some(format!("cannot start the station: {e}"))),
     };
+    if let (Some(h), Some(_)) = (&live, &record_to) {
+        let secs = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(0, |d| d.as_secs());
+        match std::fs::create_dir_all(&recordings) {
+            Ok(()) => {
+                let path = recordings.join(format!("session-{secs}.mcap"));
+                eprintln!("recording to {}", path.display());
+                h.start_recording(&path);
+            }
+            Err(e) => eprintln!(
+                "warning: not recording: cannot create {}: {e}",
+                recordings.display()
+            ),
+        }
+    }
     let mut app = StationApp::new(Box::new(backend), live);
     if let Some(e) = error {
         eprintln!("warning: {e}");

@@ -8,11 +8,13 @@ mod cmd_hold;
 mod cmd_import;
 mod cmd_lab;
 mod cmd_proto;
+mod cmd_record;
 mod cmd_replay;
 mod cmd_session;
 mod cmd_sim;
 mod cmd_sim_paper;
 mod cmd_sim_reference;
+mod cmd_sim_run;
 mod cmd_station;
 
 use clap::{Parser, Subcommand};
@@ -29,6 +31,13 @@ struct Cli {
     /// Fly a real Pro 4 on this serial port (default: the built-in simulated vehicle).
     #[arg(long, value_name = "PATH")]
     port: Option<String>,
+    /// Start the station without recording (by default every session is recorded to
+    /// ./recordings/).
+    #[arg(long)]
+    no_record: bool,
+    /// Directory for the station's recordings.
+    #[arg(long, value_name = "DIR", default_value = "recordings")]
+    recordings: std::path::PathBuf,
     /// Test hook: screenshot the window to this PNG, then exit.
     #[arg(long, value_name = "PATH", hide = true)]
     screenshot: Option<std::path::PathBuf>,
@@ -53,6 +62,8 @@ enum Command {
     Import(cmd_import::ImportArgs),
     /// Session file tools (recover a truncated recording).
     Session(cmd_session::SessionArgs),
+    /// Record a headless simulated dive to an MCAP session (real time, or --fast).
+    Record(cmd_record::RecordArgs),
     /// Model lab: compare a model with measurements, diagnose and add missing effects.
     Lab(cmd_lab::LabArgs),
 }
@@ -67,9 +78,11 @@ fn main() -> std::process::ExitCode {
         Some(Command::Export(args)) => cmd_export::run(args),
         Some(Command::Import(args)) => cmd_import::run(args),
         Some(Command::Session(args)) => cmd_session::run(args),
+        Some(Command::Record(args)) => cmd_record::run(args),
         Some(Command::Lab(args)) => cmd_lab::run(args),
         None => cmd_station::run_station(
             cli.port,
+            (!cli.no_record).then_some(cli.recordings),
             cli.screenshot.map(|p| (p, cli.screenshot_after_s)),
         ),
     };

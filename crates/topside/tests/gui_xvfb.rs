@@ -38,12 +38,16 @@ fn the_station_window_renders_under_xvfb_and_screenshots_itself() {
     let xvfb = xvfb_run();
     let out = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("station_xvfb.png");
     let _ = std::fs::remove_file(&out);
+    let rec_dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("station_xvfb_recordings");
+    let _ = std::fs::remove_dir_all(&rec_dir);
     let mut child = Command::new(xvfb)
         .args(["-a", "-s", "-screen 0 1280x800x24"])
         .arg(env!("CARGO_BIN_EXE_topside"))
         .arg("--screenshot")
         .arg(&out)
         .args(["--screenshot-after-s", "5"])
+        .arg("--recordings")
+        .arg(&rec_dir)
         .current_dir(workspace_root())
         .env("XDG_RUNTIME_DIR", std::env::temp_dir())
         .env_remove("WAYLAND_DISPLAY")
@@ -66,6 +70,18 @@ fn the_station_window_renders_under_xvfb_and_screenshots_itself() {
     let stderr = String::from_utf8_lossy(&output.stderr);
     assert!(status.success(), "topside failed ({status}):\n{stderr}");
     assert!(out.is_file(), "no screenshot written:\n{stderr}");
+
+    // Every session is recorded from the start: one MCAP file with the dive's telemetry.
+    let files: Vec<PathBuf> = std::fs::read_dir(&rec_dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    assert_eq!(files.len(), 1, "{files:?}");
+    let session = rov_session::open(&files[0]).unwrap();
+    assert!(session.len() > 100, "{} messages", session.len());
+    assert!(session.count("/telemetry/nav") > 50);
+    // Closing the window finishes the file (footer written, nothing to recover).
+    assert!(session.is_complete(), "{:?}", session.warnings);
 
     let (w, h, px) = rov_gui::screenshot::load_png(&out).unwrap();
     assert_eq!((w, h), (1280, 800), "window size");

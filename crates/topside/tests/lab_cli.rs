@@ -1,25 +1,306 @@
-//! `topside lab` through the library (the CLI module compiled into this test) and, once
-//! main.rs wires the subcommand, through the real binary.
+//! `topside lab` through the real binary, end to end: list the catalog and the models,
+//! diagnose data with a hidden effect, add it, save the extended model, and load the
+//! saved model in `lab compare`, `sim run` and `hold` like any other model.
 
-#[allow(dead_code)]
-#[path = "../src/cmd_lab.rs"]
-mod cmd_lab;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use rov_dynamics::models::{InitialConditions, Model3, load_default_model};
+use rov_dynamics::sensors::SensorConfig;
+use rov_dynamics::thrusters::{ThrustPct, ThrusterGeometry};
+use rov_sim::{Schedule, SimConfig, Simulator, run_schedule_on};
+
+fn topside() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_topside"))
+}
+
+fn tmp(name: &str) -> PathBuf {
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("lab_cli");
+    std::fs::create_dir_all(&dir).unwrap();
+    dir.join(name)
+}
+
+fn run_ok(args: &[&str]) -> String {
+    let out = topside().args(args).output().unwrap();
+    assert!(
+        out.status.success(),
+        "{args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8(out.stdout).unwrap()
+}
+
+fn json(args: &[&str]) -> serde_json::Value {
+    serde_json::from_str(&run_ok(args)).unwrap()
+}
+
+/// model3 with its vertical thruster 20 mm forward of the CO (hidden
+/// `thruster-moment-arm`), driven by steps of both signs on every thruster; 20 Hz.
+fn hidden_arm_csv(path: &Path, seed: u64, duration_s: f64) {
+    let base = load_default_model("model3").unwrap();
+    let mut p = *base.as_any().downcast_ref::<Model3>().unwrap().params();
+    let g = p.thrusters.vertical.geometry;
+    let pos = g.position_m();
+    p.thrusters.vertical.geometry =
+        ThrusterGeometry::new(nalgebra::Vector3::new(0.020, pos.y, pos.z), g.direction()).unwrap();
+    let mut cfg = SimConfig::with_model(Box::new(Model3::new(p).unwrap()));
+    cfg.initial = InitialConditions::at_rest(4.0, 30.0);
+    let mut sim = Simulator::new(cfg, seed).unwrap();
+    // A deterministic pseudo-random sequence of holds (LCG), levels of both signs.
+    let mut x = seed
+        .wrapping_mul(6364136223846793005)
+        .wrapping_add(1442695040888963407);
+    let mut next = || {
+        x = x
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        ((x >> 33) as f64) / f64::from(1u32 << 31)
+    };
+    let mut holds = Vec::new();
+    let mut t = 0.0;
+    while t < duration_s {
+        let level = [-60.0, -40.0, -20.0, 20.0, 40.0, 60.0][(next() * 6.0) as usize % 6];
+        let cmd = match (next() * 3.0) as usize {
+            0 => ThrustPct::new(0.0, 0.0, level),
+            1 => ThrustPct::new(level * 0.5, -level * 0.5, 0.0),
+            _ => ThrustPct::new(level * 0.5, level * 0.5, -level * 0.4),
+        };
+        holds.push((6.0, cmd));
+        holds.push((4.0, ThrustPct::new(0.0, 0.0, 0.0)));
+        t += 10.0;
+    }
+    let schedule = Schedule::from_holds(&holds).unwrap();
+    let series = run_schedule_on(&mut sim, &SensorConfig::default(), &schedule, 0.05).unwrap();
+    std::fs::write(path, series.to_csv()).unwrap();
+}
 
 #[test]
-fn lab_module_compiles_and_lists() {
-    use clap::Parser;
-    #[derive(Debug, clap::Parser)]
-    struct Cli {
-        #[command(subcommand)]
-        command: Cmd,
+fn catalog_and_models_are_listed() {
+    let effects = json(&["lab", "effects", "--json"]);
+    let ids: Vec<&str> = effects
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|e| e["id"].as_str().unwrap())
+        .collect();
+    assert_eq!(ids.len(), 17, "{ids:?}");
+    for id in [
+        "thrust-asymmetry",
+        "thruster-lag",
+        "thruster-deadzone",
+        "power-limit",
+        "thruster-moment-arm",
+        "propeller-torque",
+        "net-buoyancy",
+        "restoring-offset",
+        "pitch-depth-coupling",
+        "coriolis",
+        "added-mass",
+        "drag-form",
+        "current",
+        "tether",
+        "depth-sensor-drift",
+        "compass-deviation",
+        "attitude-bias",
+    ] {
+        assert!(ids.contains(&id), "{id}");
     }
-    #[derive(Debug, clap::Subcommand)]
-    enum Cmd {
-        Lab(cmd_lab::LabArgs),
+    let models = json(&["lab", "models", "--json"]);
+    let models = models.as_array().unwrap();
+    assert_eq!(models.len(), 3);
+    let m3 = models.iter().find(|m| m["model"] == "model3").unwrap();
+    let contains: Vec<&str> = m3["contains"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_str().unwrap())
+        .collect();
+    assert!(contains.contains(&"added-mass") && contains.contains(&"net-buoyancy"));
+    // The text forms work too.
+    assert!(run_ok(&["lab", "effects"]).contains("thruster-moment-arm"));
+    assert!(run_ok(&["lab", "models"]).contains("model2"));
+}
+
+#[test]
+fn diagnose_add_save_and_reuse_the_extended_model() {
+    let (train, val) = (tmp("train.csv"), tmp("val.csv"));
+    hidden_arm_csv(&train, 3, 300.0);
+    hidden_arm_csv(&val, 4, 150.0);
+    let (train_s, val_s) = (train.to_str().unwrap(), val.to_str().unwrap());
+
+    // Diagnose: the documented JSON, the hidden effect first and significant.
+    let d = json(&[
+        "lab",
+        "diagnose",
+        "--model",
+        "model3",
+        "--data",
+        train_s,
+        "--validate",
+        val_s,
+        "--json",
+    ]);
+    assert_eq!(d["model"], "model3");
+    for ch in ["depth", "heading", "pitch", "roll"] {
+        let c = &d["baseline"]["channels"][ch];
+        assert!(c["rmse"].as_f64().unwrap() > 0.0, "{ch}: {c}");
+        assert!(c.get("fit_pct").is_some(), "{ch}: {c}");
     }
-    for args in [["topside", "lab", "effects"], ["topside", "lab", "models"]] {
-        let cli = Cli::parse_from(args);
-        let Cmd::Lab(a) = cli.command;
-        assert_eq!(cmd_lab::run(a).unwrap(), std::process::ExitCode::SUCCESS);
+    let first = &d["findings"][0];
+    assert_eq!(first["effect"], "thruster-moment-arm", "{first}");
+    assert_eq!(first["significant"], true);
+    assert!(first["explanation"].as_str().unwrap().contains("mm"));
+    assert!(
+        first["channels"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|c| c == "pitch")
+    );
+    let red = &first["validation_rmse_reduction_pct"];
+    for ch in ["depth", "heading", "pitch", "roll"] {
+        assert!(red[ch].is_number(), "{ch} missing: {red}");
     }
+    assert!(red["pitch"].as_f64().unwrap() >= 50.0, "{red}");
+    let arm_mm = first["params"]["vertical_arm_x_m"]["value"]
+        .as_f64()
+        .unwrap();
+    assert!((arm_mm - 20.0).abs() <= 7.0, "arm {arm_mm} mm");
+
+    // Add it, save, plot.
+    let saved = tmp("model3-arm.toml");
+    let plots = tmp("plots");
+    let _ = std::fs::remove_dir_all(&plots);
+    let a = json(&[
+        "lab",
+        "add",
+        "--model",
+        "model3",
+        "--effects",
+        "thruster-moment-arm",
+        "--data",
+        train_s,
+        "--validate",
+        val_s,
+        "--json",
+        "--save",
+        saved.to_str().unwrap(),
+        "--plots",
+        plots.to_str().unwrap(),
+    ]);
+    let before = a["before"]["pitch"]["rmse"].as_f64().unwrap();
+    let after = a["after"]["pitch"]["rmse"].as_f64().unwrap();
+    assert!(after < 0.5 * before, "pitch RMSE {before} -> {after}");
+    assert!(saved.is_file());
+    let pngs = std::fs::read_dir(&plots)
+        .unwrap()
+        .filter(|e| {
+            e.as_ref()
+                .unwrap()
+                .path()
+                .extension()
+                .is_some_and(|x| x == "png")
+        })
+        .count();
+    assert!(pngs >= 2, "{pngs} PNGs");
+
+    // The saved model loads like any model: lab compare, sim run, hold.
+    let c = json(&[
+        "lab",
+        "compare",
+        "--model",
+        saved.to_str().unwrap(),
+        "--data",
+        val_s,
+        "--json",
+    ]);
+    let base = json(&[
+        "lab", "compare", "--model", "model3", "--data", val_s, "--json",
+    ]);
+    let rmse = |j: &serde_json::Value| {
+        j["pooled"]["free_run"]["channels"]["pitch"]["rmse"]
+            .as_f64()
+            .unwrap()
+    };
+    assert!(
+        rmse(&c) < 0.5 * rmse(&base),
+        "{} vs {}",
+        rmse(&c),
+        rmse(&base)
+    );
+
+    let pred = tmp("pred.csv");
+    run_ok(&[
+        "sim",
+        "run",
+        "--model",
+        saved.to_str().unwrap(),
+        "--data",
+        val_s,
+        "--out",
+        pred.to_str().unwrap(),
+    ]);
+    let text = std::fs::read_to_string(&pred).unwrap();
+    let header = text.lines().next().unwrap();
+    assert!(header.starts_with("time_s,port_pct,starboard_pct,vertical_pct"));
+    assert!(header.contains("pitch_deg") && header.contains("depth_m"));
+    assert!(text.lines().count() > 2000);
+
+    let h = json(&[
+        "hold",
+        "--model",
+        "model3",
+        "--depth-m",
+        "5",
+        "--heading-deg",
+        "90",
+        "--duration-s",
+        "30",
+        "--vehicle",
+        saved.to_str().unwrap(),
+        "--json",
+    ]);
+    assert!(h["depth"]["settle_s"].is_number(), "{h}");
+}
+
+#[test]
+fn bad_lab_input_is_named() {
+    let o = topside()
+        .args([
+            "lab",
+            "compare",
+            "--model",
+            "model9",
+            "--data",
+            "nothing.csv",
+        ])
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("model9"));
+    let bad = tmp("bad.csv");
+    std::fs::write(&bad, "time_s,depth_m\n0,nan\n").unwrap();
+    let o = topside()
+        .args(["lab", "compare", "--model", "model3", "--data"])
+        .arg(&bad)
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    let o = topside()
+        .args([
+            "lab",
+            "add",
+            "--model",
+            "model3",
+            "--effects",
+            "warp-drive",
+            "--data",
+            "a.csv",
+            "--validate",
+            "b.csv",
+        ])
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("warp-drive"));
 }

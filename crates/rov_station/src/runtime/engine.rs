@@ -313,7 +313,7 @@ impl Engine {
                 .map_or(0.0, |d| d.as_secs_f64()),
             config_toml: self.cfg.config_toml.clone(),
         };
-        match Recorder::start(path, &info, now_us) {
+        match Recorder::start(path, &info, now_us, self.cfg.record_blocking) {
             Ok(r) => {
                 self.recorder = Some(r);
                 let v = &mut self.pipeline.view.recording;

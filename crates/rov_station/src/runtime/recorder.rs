@@ -59,6 +59,7 @@ pub struct Recorder {
     error: Arc<std::sync::Mutex<Option<String>>>,
     join: Option<JoinHandle<Result<WriteSummary, String>>>,
     started_us: u64,
+    blocking: bool,
 }
 
 impl Recorder {
@@ -67,7 +68,12 @@ impl Recorder {
     ///
     /// # Errors
     /// The writer's error text if the file cannot be created.
-    pub fn start(path: &Path, info: &SessionInfo, started_us: u64) -> Result<Self, String> {
+    pub fn start(
+        path: &Path,
+        info: &SessionInfo,
+        started_us: u64,
+        blocking: bool,
+    ) -> Result<Self, String> {
         let writer = SessionWriter::create(path, info, 0).map_err(|e| e.to_string())?;
         let (tx, rx) = sync_channel(QUEUE_CAPACITY);
         let counters = Arc::new(Counters::default());
@@ -85,6 +91,7 @@ impl Recorder {
             error,
             join: Some(join),
             started_us,
+            blocking,
         })
     }
 
@@ -109,6 +116,15 @@ impl Recorder {
     /// Queues an item; a full queue drops it (counted).
     pub fn send(&self, item: RecordItem) {
         if let Some(tx) = &self.tx {
+            if self.blocking {
+                // Virtual time: wait for the writer rather than lose a message.
+                let counter = match tx.send(item) {
+                    Ok(()) => &self.counters.queued,
+                    Err(_) => &self.counters.dropped,
+                };
+                counter.fetch_add(1, Ordering::Relaxed);
+                return;
+            }
             match tx.try_send(item) {
                 Ok(()) => {
                     self.counters.queued.fetch_add(1, Ordering::Relaxed);

@@ -88,6 +88,8 @@ impl VirtualStation {
         cfg: RuntimeConfig,
         models: ModelSet,
     ) -> Result<(Self, StationHandle), RuntimeError> {
+        let mut cfg = cfg;
+        cfg.record_blocking = true;
         let period_us = cfg.period_us();
         let shared = Arc::new(Shared::new(period_us, MonoClock::new()));
         let (tx, rx) = command_channel();
