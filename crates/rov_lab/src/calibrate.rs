@@ -6,6 +6,25 @@
 //! [`SHOOTING_WINDOW_S`] apart), each divided by the channel's noise floor. Missing
 //! samples contribute zero, so the residual vector keeps its length.
 //!
+//! # Channel weights (unknown per-channel error variance)
+//!
+//! Dividing by the sensor noise alone lets a channel the model cannot explain at all (a
+//! pitch response to a missing moment arm at 15 noise floors, an unmodelled surge at 10)
+//! dominate the cost, and the base parameters then bend to shave that channel's error
+//! (an added mass ten times its prior, a CG height an eighth of it) at the expense of the
+//! channels the base *can* explain. Fits therefore weight channel c by
+//! 1/max(σ_noise,c, s_c), where s_c is the structural part of the channel's
+//! multiple-shooting RMSE under the reference model ([`misfit_scales`],
+//! [`structural_scales`]; one scale per channel for every view): the maximum-likelihood
+//! criterion for unknown per-channel error variances (minimising Σ_c N_c ln RSS_c,
+//! MATLAB's "determinant" criterion), solved by iterative reweighting. The weights are
+//! taken from a *converged* fit — [`staged_fit`] first calibrates with noise weights and
+//! reweights only the channels that fit still misses by more than [`REWEIGHT_FACTOR`]
+//! noise floors (weights from an unconverged start would penalise mere mistuning), and the
+//! diagnosis re-estimates them after every accepted effect. A channel within a couple of
+//! noise floors keeps its noise weight, so on effect-free data the weights are the plain
+//! noise weights.
+//!
 //! Free base parameters ([`BaseKind::calibration_params`]): thrust scales (linear and
 //! quadratic part of each thruster's map), heave and yaw damping (linear, quadratic),
 //! and for model3 roll/pitch linear damping and the CG height (restoring stiffness).
@@ -16,7 +35,7 @@ use rov_dynamics::models::Channel;
 use serde::Serialize;
 
 use crate::LabError;
-use crate::data::{Run, ch_index};
+use crate::data::{N_CHANNELS, Run, ch_index};
 use crate::lm::{Bound, LmOptions, LmResult, minimize_with};
 use crate::model::LabModel;
 use crate::params::{Axis, Param, Thr};
@@ -47,6 +66,13 @@ impl View {
     }
 }
 
+/// Per-channel model-misfit scales (index as [`Channel::ALL`], same unit as the channel);
+/// 0 = weight by the noise floor only.
+pub type ChannelScales = [f64; N_CHANNELS];
+
+/// No misfit scales: plain noise weights.
+pub const NOISE_ONLY: ChannelScales = [0.0; N_CHANNELS];
+
 /// A stacked, noise-normalised simulation-error objective over runs.
 #[derive(Debug, Clone)]
 pub struct Objective<'a> {
@@ -61,8 +87,14 @@ pub struct Objective<'a> {
 }
 
 impl<'a> Objective<'a> {
-    /// Builds the objective for a model's predicted channels.
+    /// Builds the objective for a model's predicted channels (noise weights).
     pub fn new(model: &LabModel, runs: &'a [Run], view: View) -> Self {
+        Self::scaled(model, runs, view, &NOISE_ONLY)
+    }
+
+    /// Builds the objective with channel weights 1/max(σ_noise, s_c) (see the module
+    /// documentation).
+    pub fn scaled(model: &LabModel, runs: &'a [Run], view: View, scales: &ChannelScales) -> Self {
         let mut channels: Vec<Channel> = Vec::new();
         for run in runs {
             for c in compared_channels(model, run) {
@@ -77,8 +109,9 @@ impl<'a> Objective<'a> {
                 let mut w = [0.0; 12];
                 for c in &channels {
                     let i = ch_index(*c);
-                    if r.noise[i] > 0.0 {
-                        w[i] = 1.0 / r.noise[i];
+                    let sigma = r.noise[i].max(scales[i]);
+                    if sigma > 0.0 && sigma.is_finite() {
+                        w[i] = 1.0 / sigma;
                     }
                 }
                 w
@@ -138,6 +171,39 @@ impl<'a> Objective<'a> {
     }
 }
 
+/// Pooled RMSE per channel of a model on runs in a view: the misfit scales of the
+/// objective's channel weights. Channels the model does not predict stay 0.
+pub fn misfit_scales(
+    model: &LabModel,
+    runs: &[Run],
+    view: View,
+) -> Result<ChannelScales, LabError> {
+    let mut sum = [0.0; N_CHANNELS];
+    let mut cnt = [0usize; N_CHANNELS];
+    for run in runs {
+        let pred = simulate_run(model, run, &view.resets(run))?;
+        for ch in compared_channels(model, run) {
+            let i = ch_index(ch);
+            if let (Some(y), Some(p)) = (run.channel(ch), pred.channel(ch)) {
+                for (a, b) in y.iter().zip(p) {
+                    let e = crate::metrics::residual(ch, *a, *b);
+                    if e.is_finite() {
+                        sum[i] += e * e;
+                        cnt[i] += 1;
+                    }
+                }
+            }
+        }
+    }
+    let mut out = NOISE_ONLY;
+    for i in 0..N_CHANNELS {
+        if cnt[i] > 0 {
+            out[i] = (sum[i] / cnt[i] as f64).sqrt();
+        }
+    }
+    Ok(out)
+}
+
 /// Effective sample size of a residual vector split into blocks of `block` samples:
 /// N·(1 − ρ₁)/(1 + ρ₁) with the pooled lag-1 autocorrelation (at least 1 % of N).
 pub fn effective_n(r: &[f64], block: usize) -> f64 {
@@ -192,6 +258,8 @@ pub struct Calibration {
     pub n_eff: f64,
     /// The LM result (Jacobian for screening).
     pub lm: LmResult,
+    /// The channel misfit scales of the objective's weights.
+    pub scales: ChannelScales,
 }
 
 /// Whether a parameter can be excited by the data (thruster used, channel measured).
@@ -280,7 +348,23 @@ pub fn fit_with(
     opts: &LmOptions,
     j0: Option<nalgebra::DMatrix<f64>>,
 ) -> Result<Calibration, LabError> {
-    let obj = Objective::new(model, runs, view);
+    fit_scaled(model, runs, free, view, x0, bounds, opts, j0, &NOISE_ONLY)
+}
+
+/// [`fit_with`] with channel misfit scales in the weights (see the module documentation).
+#[allow(clippy::too_many_arguments)]
+pub fn fit_scaled(
+    model: &LabModel,
+    runs: &[Run],
+    free: &[Param],
+    view: View,
+    x0: Option<&[f64]>,
+    bounds: Option<Vec<Bound>>,
+    opts: &LmOptions,
+    j0: Option<nalgebra::DMatrix<f64>>,
+    scales: &ChannelScales,
+) -> Result<Calibration, LabError> {
+    let obj = Objective::scaled(model, runs, view, scales);
     if obj.is_empty() {
         return Err(LabError::Data {
             run: runs
@@ -337,6 +421,7 @@ pub fn fit_with(
         n_res: lm.n_res,
         n_eff,
         lm,
+        scales: *scales,
     })
 }
 
@@ -360,7 +445,18 @@ pub fn calibrate(
 /// Short prediction horizon of the first calibration stage, s.
 pub const SHORT_HORIZON_S: f64 = 2.0;
 
-/// The two-stage fit of [`calibrate`] for any free set.
+/// The staged fit of [`calibrate`] for any free set, with one reweighting of the
+/// channels (module documentation):
+///
+/// 1. short horizon, then multiple shooting, with noise weights, from the given model
+///    (the original calibration);
+/// 2. if that converged fit leaves some channel above [`REWEIGHT_FACTOR`] noise floors
+///    (a misfit the base cannot remove, not a mistuning it has not removed yet), both
+///    stages again with weights from that structural misfit ([`structural_scales`]): the
+///    short horizon started from the better (under the new weights) of the given model
+///    and the stage-1 short-horizon result (from the latter with its Jacobian, rows
+///    reweighted, and Broyden updates: cheap), then multiple shooting with the weights
+///    re-estimated from there (fresh Jacobians).
 pub fn staged_fit(
     model: &LabModel,
     runs: &[Run],
@@ -369,18 +465,132 @@ pub fn staged_fit(
 ) -> Result<Calibration, LabError> {
     let dt = runs.first().map_or(0.05, |r| r.median_dt()).max(1e-3);
     let k = (SHORT_HORIZON_S / dt).round().max(2.0) as usize;
-    let first = fit(model, runs, free, View::KStep(k), None, None, opts)?;
-    let second = LmOptions {
-        max_iter: (opts.max_iter / 2).max(3),
-        ..*opts
+    let short = View::KStep(k);
+    let shooting = View::Shooting(SHOOTING_WINDOW_S);
+    let short_fit = fit(model, runs, free, short, None, None, opts)?;
+    let noise_fit = fit(
+        &short_fit.model,
+        runs,
+        free,
+        shooting,
+        None,
+        Some(bounds_for(model, free, true)),
+        &LmOptions {
+            max_iter: (opts.max_iter / 2).max(3),
+            ..*opts
+        },
+    )?;
+    let s1 = structural_scales(runs, &misfit_scales(&noise_fit.model, runs, shooting)?);
+    if s1 == NOISE_ONLY {
+        return Ok(noise_fit);
+    }
+    let rows = row_factors(model, runs, short, &NOISE_ONLY, &s1);
+    let obj = Objective::scaled(model, runs, short, &s1);
+    let cost = |m: &LabModel| -> f64 {
+        obj.residuals(m)
+            .map(|r| r.iter().map(|x| x * x).sum())
+            .unwrap_or(f64::INFINITY)
     };
-    fit(
+    let (start, j0) = if cost(&short_fit.model) <= cost(model) {
+        let j0 = short_fit.lm.jacobian.clone().map(|mut j| {
+            if let Some(f) = &rows
+                && f.len() == j.nrows()
+            {
+                for c in 0..j.ncols() {
+                    for (x, k) in j.column_mut(c).iter_mut().zip(f) {
+                        *x *= k;
+                    }
+                }
+            }
+            j
+        });
+        (&short_fit.model, j0)
+    } else {
+        (model, None)
+    };
+    let first = fit_scaled(
+        start,
+        runs,
+        free,
+        short,
+        None,
+        Some(bounds_for(model, free, true)),
+        opts,
+        j0,
+        &s1,
+    )?;
+    let s2 = structural_scales(runs, &misfit_scales(&first.model, runs, shooting)?);
+    // Fresh Jacobians here: with channels down-weighted, parameters acting mostly on them
+    // are weakly determined, and rank-one updates let them wander.
+    fit_scaled(
         &first.model,
         runs,
         free,
-        View::Shooting(SHOOTING_WINDOW_S),
+        shooting,
         None,
         Some(bounds_for(model, free, true)),
-        &second,
+        &LmOptions {
+            max_iter: (opts.max_iter / 2).max(3),
+            ..*opts
+        },
+        None,
+        &s2,
     )
+}
+
+/// Per-sample factors taking a weighted residual (layout of [`Objective`]) from the
+/// weights of `old` to those of `new` (`None` when they are all 1).
+pub(crate) fn row_factors(
+    model: &LabModel,
+    runs: &[Run],
+    view: View,
+    old: &ChannelScales,
+    new: &ChannelScales,
+) -> Option<Vec<f64>> {
+    if old == new {
+        return None;
+    }
+    let a = Objective::scaled(model, runs, view, old);
+    let b = Objective::scaled(model, runs, view, new);
+    let mut out = Vec::with_capacity(a.len());
+    let mut any = false;
+    for (ri, run) in runs.iter().enumerate() {
+        for ch in &a.channels {
+            let i = ch_index(*ch);
+            let (wa, wb) = (a.weights[ri][i], b.weights[ri][i]);
+            let f = if wa > 0.0 { wb / wa } else { 0.0 };
+            any |= f != 1.0;
+            out.extend(std::iter::repeat_n(f, run.len()));
+        }
+    }
+    any.then_some(out)
+}
+
+/// A channel whose misfit exceeds this many noise floors is down-weighted.
+pub const REWEIGHT_FACTOR: f64 = 2.0;
+
+/// The structural part of a misfit: per channel max(σ, s − (K − 1)σ) with K =
+/// [`REWEIGHT_FACTOR`] and σ the runs' pooled noise floor, or 0 (noise weight) when the
+/// misfit is within K noise floors. Continuous in s; close to s for a large misfit. A
+/// misfit within a few noise floors may be an underestimated floor or a calibration that
+/// has not fully converged, and keeps the plain noise weight.
+pub fn structural_scales(runs: &[Run], misfit: &ChannelScales) -> ChannelScales {
+    let mut out = NOISE_ONLY;
+    for (i, o) in out.iter_mut().enumerate() {
+        let (mut sum, mut n) = (0.0, 0usize);
+        for r in runs {
+            if r.y[i].is_some() && r.noise[i] > 0.0 {
+                sum += r.noise[i].powi(2) * r.len() as f64;
+                n += r.len();
+            }
+        }
+        if n == 0 {
+            continue;
+        }
+        let sigma = (sum / n as f64).sqrt();
+        if misfit[i] > REWEIGHT_FACTOR * sigma {
+            *o = (misfit[i] - (REWEIGHT_FACTOR - 1.0) * sigma).max(sigma);
+        }
+    }
+    out
 }

@@ -66,6 +66,9 @@ pub fn ch_wraps(ch: Channel) -> bool {
     ch == Channel::Heading
 }
 
+/// Longest stretch at the start of a run fitted together for the initial state, s.
+const START_WINDOW_S: f64 = 2.0;
+
 /// Lowest noise floor assumed for a channel (quantisation and numerics).
 fn noise_floor_min(ch: Channel) -> f64 {
     match ch {
@@ -223,6 +226,49 @@ fn noise_estimate(v: &[f64]) -> Option<f64> {
     Some(1.4826 * med / 20f64.sqrt())
 }
 
+/// Length of the run-start stretch fitted by one straight line for the initial state
+/// (0 = none): the first [`START_WINDOW_S`] of a first segment that rests at least 1 s.
+pub(crate) fn start_window(first: Option<&Segment>) -> f64 {
+    match first {
+        Some(s) if s.kind == SegmentKind::Rest && s.t_end_s - s.t_start_s >= 1.0 => {
+            (s.t_end_s - s.t_start_s).min(START_WINDOW_S)
+        }
+        _ => 0.0,
+    }
+}
+
+/// Samples within this time of the run start take the run-start estimate, s.
+pub(crate) const START_SPAN_S: f64 = 0.3;
+
+/// Straight line y ≈ a + b (t − t₀) through the finite samples of the first `win_s`
+/// seconds: (a, b, (se a, se b)).
+pub(crate) fn line_fit(t: &[f64], y: &[f64], win_s: f64) -> Option<(f64, f64, (f64, f64))> {
+    let t0 = *t.first()?;
+    let pts: Vec<(f64, f64)> = t
+        .iter()
+        .zip(y)
+        .take_while(|(ti, _)| **ti - t0 <= win_s + 1e-9)
+        .filter(|(_, yi)| yi.is_finite())
+        .map(|(ti, yi)| (*ti - t0, *yi))
+        .collect();
+    let m = pts.len() as f64;
+    if m < 5.0 {
+        return None;
+    }
+    let (st, sy) = pts.iter().fold((0.0, 0.0), |a, p| (a.0 + p.0, a.1 + p.1));
+    let (mt, my) = (st / m, sy / m);
+    let stt: f64 = pts.iter().map(|p| (p.0 - mt).powi(2)).sum();
+    if stt <= 0.0 {
+        return None;
+    }
+    let b = pts.iter().map(|p| (p.0 - mt) * (p.1 - my)).sum::<f64>() / stt;
+    let a = my - b * mt;
+    let s2 = pts.iter().map(|p| (p.1 - a - b * p.0).powi(2)).sum::<f64>() / (m - 2.0);
+    let se_b = (s2 / stt).sqrt();
+    let se_a = (s2 * (1.0 / m + mt * mt / stt)).sqrt();
+    Some((a, b, (se_a, se_b)))
+}
+
 /// Local quadratic least-squares fit: value and slope at `t[i]` from samples within
 /// `[t_i − before, t_i + after]`.
 pub(crate) fn local_quadratic(
@@ -329,25 +375,56 @@ impl Run {
         }
         let mut noise = [0.0; N_CHANNELS];
         let mut smooth: [Option<Vec<f64>>; N_CHANNELS] = Default::default();
+        let first = segments_of(&t, &cmd).first().copied();
+        let first_len_s = first.map_or(0.0, |s| s.t_end_s - s.t_start_s);
+        // The free run starts from the smoothed first sample. A one-sided 0.3 s quadratic
+        // there has ~5× the variance of a centred one, and its error (an initial heave
+        // velocity off by one noise σ) persists as an offset over the whole free run. When
+        // the run starts with the thrusters at rest, the vehicle coasts smoothly, so the
+        // first samples come from a straight line through the first [`START_WINDOW_S`] of
+        // that rest instead (a measured rate whose line is within 3 standard errors of zero
+        // starts at zero, like the rates derived below).
+        let start_win = start_window(first.as_ref());
         for ch in Channel::ALL {
             let i = ch_index(ch);
             if let Some(v) = &y[i] {
                 noise[i] = noise_estimate(v).unwrap_or(0.0).max(noise_floor_min(ch));
-                let s: Vec<f64> = (0..n)
+                let mut s: Vec<f64> = (0..n)
                     .map(|k| {
                         local_quadratic(&t, v, k, 0.3, 0.3)
                             .map(|(a, _)| a)
                             .unwrap_or(v[k])
                     })
                     .collect();
+                if start_win > 0.0
+                    && let Some((a, b, se)) = line_fit(&t, v, start_win)
+                {
+                    let is_rate = matches!(
+                        ch,
+                        Channel::Surge
+                            | Channel::Sway
+                            | Channel::Heave
+                            | Channel::RollRate
+                            | Channel::PitchRate
+                            | Channel::YawRate
+                    );
+                    for k in 0..n {
+                        let dt0 = t[k] - t[0];
+                        if dt0 >= START_SPAN_S {
+                            break;
+                        }
+                        s[k] = if is_rate && a.abs() <= 3.0 * se.0 && b.abs() <= 3.0 * se.1 {
+                            0.0
+                        } else {
+                            a + b * dt0
+                        };
+                    }
+                }
                 smooth[i] = Some(s);
             }
         }
         // Initial rates: a straight-line fit over the first quiet stretch (at most 2 s),
         // kept only when clearly non-zero (a noisy slope would start a drift).
-        let first_len_s = segments_of(&t, &cmd)
-            .first()
-            .map_or(0.0, |s| s.t_end_s - s.t_start_s);
         let win = first_len_s.min(2.0);
         let slope = |ch: Channel| -> f64 {
             let Some(v) = y[ch_index(ch)].as_ref() else {

@@ -8,7 +8,7 @@ use serde::Serialize;
 
 use crate::LabError;
 use crate::analysis::{ChannelFailure, channel_failure, segment_metrics};
-use crate::calibrate::{FittedParam, SHOOTING_WINDOW_S, View, fit, staged_fit};
+use crate::calibrate::{FittedParam, SHOOTING_WINDOW_S, View, fit_scaled, staged_fit};
 use crate::catalog::EffectId;
 use crate::data::{Run, ch_name};
 use crate::diagnose::{Diagnosis, Finding};
@@ -174,7 +174,8 @@ pub fn fit_with_effects(
         }
     }
     let cal = staged_fit(&m, runs, &free, opts)?;
-    let polish = fit(
+    // Same channel weights as the calibration's last stage, so the costs compare.
+    let polish = fit_scaled(
         &cal.model,
         runs,
         &free,
@@ -185,6 +186,8 @@ pub fn fit_with_effects(
             max_iter: 3,
             ..*opts
         },
+        None,
+        &cal.scales,
     )?;
     let best = if polish.cost <= cal.cost { polish } else { cal };
     Ok((best.model, best.fitted))

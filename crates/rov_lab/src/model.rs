@@ -843,8 +843,10 @@ impl LabModel {
         }
     }
 
+    /// The compass reading's offset (deviation and thruster interference) at a heading
+    /// under the command acting just before the sample, deg.
     #[inline]
-    fn heading_offset_deg(&self, psi_rad: f64, cmd: &ThrustPct) -> f64 {
+    pub(crate) fn heading_offset_deg(&self, psi_rad: f64, cmd: &ThrustPct) -> f64 {
         let f = &self.fx;
         let (s, c) = psi_rad.sin_cos();
         f.compass_dev_deg[0] * s

@@ -285,6 +285,24 @@ impl Param {
         }
     }
 
+    /// Whether a bound is a physical limit rather than a plausibility limit (`upper`
+    /// selects the bound). A fit may legitimately end at a physical limit — a lag of 0 s,
+    /// no dead zone, a power budget that never binds, a thrust line at the edge of the
+    /// hull — but a fit pinned at a plausibility limit (a 60 cm/min depth drift, a
+    /// reverse thrust ratio of 0.2) stands in for some other effect.
+    pub fn bound_is_physical(self, upper: bool) -> bool {
+        match self {
+            Param::LagTau | Param::Deadzone => !upper,
+            Param::PowerMax => upper,
+            // ±0.1 m is about half the hull (0.375 × 0.289 × 0.223 m): a thrust line
+            // cannot lie outside the vehicle.
+            Param::ArmZh | Param::ArmXv | Param::ArmYv => true,
+            Param::ThrustLin(_) | Param::DragLin(_) | Param::DragQuad(_) => !upper,
+            Param::AddedMass(_) => !upper,
+            _ => false,
+        }
+    }
+
     /// The value at which an effect parameter has no effect (`None` for base
     /// parameters, whose value comes from the model).
     pub fn off_value(self) -> Option<f64> {

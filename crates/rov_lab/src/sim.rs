@@ -64,18 +64,41 @@ fn prev_cmd(run: &Run, k: usize) -> ThrustPct {
 
 /// Re-initialises the measured part of the state at sample k.
 fn reinit(model: &LabModel, run: &Run, k: usize, state: &mut ModelState) {
-    // Smoothed measurement at k. With sensor effects the samples are first mapped
-    // through the inverse sensor model (each with its own time and command), so that
-    // jumps of the reading (thruster interference) are not smoothed into the state.
+    // Smoothed measurement at k. With a compass effect the heading samples are first
+    // mapped through the inverse sensor model (each with its own heading and command), so
+    // that jumps of the reading (thruster interference) are not smoothed into the state.
+    // The other sensor effects are offsets (a bias, a drift linear in time), which the
+    // local polynomial smoother reproduces exactly, so the smoothed reading is inverted
+    // directly (and keeps the run-start estimate of [`Run::smooth`]).
+    let fx = model.effect_values();
+    let compass = fx.compass_dev_deg != [0.0; 2] || fx.emi_deg != [0.0; 3];
+    let t_rel = run.t[k] - run.t[0];
     let sm = |ch: Channel| -> Option<f64> {
         let i = ch_index(ch);
         if model.has_sensor_effects()
-            && matches!(
-                ch,
-                Channel::Depth | Channel::Heading | Channel::Pitch | Channel::Roll
-            )
+            && matches!(ch, Channel::Depth | Channel::Pitch | Channel::Roll)
         {
+            let v = run.smooth[i]
+                .as_ref()
+                .map(|v| v[k])
+                .filter(|x| x.is_finite())?;
+            return Some(model.sensor_inverse(ch, v, t_rel, &prev_cmd(run, k)));
+        }
+        if compass && ch == Channel::Heading {
             let y = run.y[i].as_ref()?;
+            let start_win = crate::data::start_window(run.segments.first());
+            if start_win > 0.0 && t_rel < crate::data::START_SPAN_S {
+                // Run start: one line through the inverted readings of the first rest
+                // (as `Run::smooth` does for the raw readings).
+                let xs: Vec<f64> = (0..run.len())
+                    .take_while(|j| run.t[*j] - run.t[0] <= start_win + 1e-9)
+                    .map(|j| model.sensor_inverse(ch, y[j], run.t[j] - run.t[0], &prev_cmd(run, j)))
+                    .collect();
+                let ts = &run.t[..xs.len()];
+                if let Some((a, b, _)) = crate::data::line_fit(ts, &xs, start_win) {
+                    return Some(a + b * t_rel).filter(|x| x.is_finite());
+                }
+            }
             let lo = k.saturating_sub(12);
             let hi = (k + 13).min(run.len());
             let tt: Vec<f64> = run.t[lo..hi].to_vec();
