@@ -49,13 +49,13 @@
 //! 5 m and 180° at 30 s, disarm 1 s before the end (commands past the end are skipped).
 //! A bad script names the entry, the key, the value and the allowed range.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
 
 use anyhow::{Context as _, bail};
 use clap::Args;
-use rov_control::{Axis, ControlConfig, ModeCommand, PilotInput};
+use rov_control::{Axis, ModeCommand, PilotInput};
 use rov_station::StationCommand;
 use rov_station::runtime::{
     CameraCommand, Runtime, RuntimeCommand, RuntimeConfig, StationHandle, VirtualStation,
@@ -336,22 +336,10 @@ impl<'a> Pilot<'a> {
 }
 
 fn runtime_config(seed: u64) -> anyhow::Result<RuntimeConfig> {
-    // The station's settings file when run from the project directory, else defaults.
-    let path = Path::new("config/station.toml");
-    let (control, text) = match std::fs::read_to_string(path) {
-        Ok(text) => (
-            ControlConfig::from_toml_str(&text, &path.display().to_string())
-                .with_context(|| format!("reading {}", path.display()))?,
-            text,
-        ),
-        Err(_) => (ControlConfig::default(), String::new()),
-    };
     Ok(RuntimeConfig {
-        control,
-        config_toml: text,
         gamepad: false,
         sim_seed: seed,
-        ..RuntimeConfig::default()
+        ..crate::cmd_station::config(None)?
     })
 }
 

@@ -18,13 +18,15 @@ use std::sync::atomic::Ordering;
 
 use anyhow::Context as _;
 use rov_control::ControlConfig;
-use rov_gui::{RealBackend, ScreenshotRequest, StationApp, Tab};
+use rov_gui::{Backend as _, RealBackend, ScreenshotRequest, StationApp, Tab};
 use rov_station::runtime::{Connection, Runtime, RuntimeConfig};
 
 /// The station's configuration file, relative to the working directory.
 const CONFIG_PATH: &str = "config/station.toml";
 
-fn config(port: Option<String>) -> anyhow::Result<RuntimeConfig> {
+/// The runtime settings: `config/station.toml` when it exists (defaults otherwise), on
+/// the given port or the simulator. Shared with `topside record`.
+pub fn config(port: Option<String>) -> anyhow::Result<RuntimeConfig> {
     let (control, text) = match std::fs::read_to_string(CONFIG_PATH) {
         Ok(text) => (
             ControlConfig::from_toml_str(&text, CONFIG_PATH)
@@ -51,26 +53,16 @@ pub fn run_station(
     let recordings = record_to
         .clone()
         .unwrap_or_else(|| PathBuf::from("recordings"));
-    let backend = RealBackend::new(cfg.clone(), recordings.clone());
+    let mut backend = RealBackend::new(cfg.clone(), recordings);
     let (live, error) = match Runtime::start(cfg.clone()) {
         Ok(h) => (Some(h), None),
         Err(e) => (None, Some(format!("cannot start the station: {e}"))),
     };
     if let (Some(h), Some(_)) = (&live, &record_to) {
-        let secs = std::time::SystemTime::now()
-            .duration_since(std::time::UNIX_EPOCH)
-            .map_or(0, |d| d.as_secs());
-        match std::fs::create_dir_all(&recordings) {
-            Ok(()) => {
-                let path = recordings.join(format!("session-{secs}.mcap"));
-                eprintln!("recording to {}", path.display());
-                h.start_recording(&path);
-            }
-            Err(e) => eprintln!(
-                "warning: not recording: cannot create {}: {e}",
-                recordings.display()
-            ),
-        }
+        // The same file naming as the REC button.
+        let path = backend.recording_path();
+        eprintln!("recording to {}", path.display());
+        h.start_recording(&path);
     }
     let mut app = StationApp::new(Box::new(backend), live);
     if let Some(e) = error {
