@@ -49,6 +49,38 @@ impl<const N: usize> StateVector for SVector<f64, N> {
     }
 }
 
+/// The 12-state [η; ν] as two 6-vectors, for models without extra states.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EtaNu {
+    /// η = [x, y, z, φ, θ, ψ].
+    pub eta: Vector6,
+    /// ν = [u, v, w, p, q, r].
+    pub nu: Vector6,
+}
+
+impl StateVector for EtaNu {
+    #[inline]
+    fn add_scaled(&self, d: &Self, h: f64) -> Self {
+        Self {
+            eta: self.eta + d.eta * h,
+            nu: self.nu + d.nu * h,
+        }
+    }
+
+    #[inline]
+    fn rk4_combine(&self, k1: &Self, k2: &Self, k3: &Self, k4: &Self, h: f64) -> Self {
+        let s = h / 6.0;
+        Self {
+            eta: self.eta + (k1.eta + k2.eta * 2.0 + k3.eta * 2.0 + k4.eta) * s,
+            nu: self.nu + (k1.nu + k2.nu * 2.0 + k3.nu * 2.0 + k4.nu) * s,
+        }
+    }
+
+    fn all_finite(&self) -> bool {
+        self.eta.iter().chain(self.nu.iter()).all(|x| x.is_finite())
+    }
+}
+
 /// One classical RK4 step of ẋ = f(t, x) from (t, x) with step h.
 #[inline]
 pub fn rk4_step<S, F>(mut f: F, t: f64, x: &S, h: f64) -> S

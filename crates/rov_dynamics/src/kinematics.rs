@@ -17,7 +17,7 @@
 
 use nalgebra::{Matrix3, Quaternion, SVector, UnitQuaternion, Vector3};
 
-use crate::math::{Matrix6, Vector6, ang, lin, sin_cos};
+use crate::math::{Matrix6, Vector6, ang, lin, sin_cos3};
 
 /// A ZYX Euler attitude with its sines and cosines computed once.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -40,9 +40,11 @@ impl Attitude {
     /// From roll φ, pitch θ, yaw ψ in radians.
     #[inline]
     pub fn new(roll_rad: f64, pitch_rad: f64, yaw_rad: f64) -> Self {
-        let (sin_roll, cos_roll) = sin_cos(roll_rad);
-        let (sin_pitch, cos_pitch) = sin_cos(pitch_rad);
-        let (sin_yaw, cos_yaw) = sin_cos(yaw_rad);
+        let [
+            (sin_roll, cos_roll),
+            (sin_pitch, cos_pitch),
+            (sin_yaw, cos_yaw),
+        ] = sin_cos3([roll_rad, pitch_rad, yaw_rad]);
         Self {
             sin_roll,
             cos_roll,

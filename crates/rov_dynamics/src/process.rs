@@ -256,6 +256,26 @@ pub struct ProcessModel {
     linear_damping_diag: Option<Vector6>,
     /// Diagonal of M_A when M_A is diagonal (fast path of the Munk correction).
     added_mass_diag: Option<Vector6>,
+    /// W − B, N.
+    net_weight_n: f64,
+    /// W r_g − B r_b, N m (the restoring moment is this × the down axis).
+    restoring_arm_nm: Vector3<f64>,
+}
+
+/// `m · v` for a 6×6 matrix, summed column by column in the order nalgebra's product uses.
+#[inline]
+fn mat6_mul(m: &Matrix6, v: &[f64; 6]) -> [f64; 6] {
+    let c = &m.data.0;
+    let mut out = [0.0; 6];
+    for (i, o) in out.iter_mut().enumerate() {
+        *o = c[0][i] * v[0]
+            + c[1][i] * v[1]
+            + c[2][i] * v[2]
+            + c[3][i] * v[3]
+            + c[4][i] * v[4]
+            + c[5][i] * v[5];
+    }
+    out
 }
 
 fn diagonal_of(m: &Matrix6) -> Option<Vector6> {
@@ -297,7 +317,10 @@ impl ProcessModel {
                 detail: format!("not positive definite: {m_sym}"),
             })?;
         let m_inv = chol.inverse();
+        let h = &params.hydrostatics;
         Ok(Self {
+            net_weight_n: h.weight_n - h.buoyancy_n,
+            restoring_arm_nm: h.cg_from_co_m * h.weight_n - h.cb_from_co_m * h.buoyancy_n,
             linear_damping_diag: diagonal_of(&params.damping.linear),
             added_mass_diag: diagonal_of(&m_a_sym),
             params,
@@ -387,6 +410,11 @@ impl ProcessModel {
 
     /// ν̇ given the rotation R = R_{n←b} and the down axis k = Rᵀ e_z. Works for Euler or
     /// quaternion attitudes. `tau` already includes τ_ext.
+    ///
+    /// This is the hot path of every simulation, written out in scalars: the same terms
+    /// as [`ProcessModel::coriolis_force`], [`ProcessModel::damping_force`] and
+    /// [`Hydrostatics::restoring_from_down`] (the tests compare them), without the
+    /// temporaries of the vector form.
     #[inline]
     pub fn nu_dot_with_rotation(
         &self,
@@ -396,21 +424,83 @@ impl ProcessModel {
         tau: &Vector6,
         current: &CurrentSample,
     ) -> Vector6 {
-        let omega = ang(nu);
-        let rt = ned_from_body.transpose();
-        let vc_body = rt * current.vel_ned_mps;
-        let mut vc_dot_body = -omega.cross(&vc_body);
-        if current.accel_ned_mps2 != Vector3::zeros() {
-            vc_dot_body += rt * current.accel_ned_mps2;
+        // Column j of R is rm[j]; row i of Rᵀ is column i of R.
+        let rm = &ned_from_body.data.0;
+        let [u, v, w, p, q, r] = nu.data.0[0];
+        let vn = &current.vel_ned_mps;
+        let dot_col = |j: usize, x: &Vector3<f64>| rm[j][0] * x.x + rm[j][1] * x.y + rm[j][2] * x.z;
+        // ν_c = [Rᵀ v_c^n ; 0] and its derivative −S(ω) Rᵀ v_c^n (+ Rᵀ v̇_c^n).
+        let vc = [dot_col(0, vn), dot_col(1, vn), dot_col(2, vn)];
+        let mut vc_dot = [
+            vc[1] * r - vc[2] * q,
+            vc[2] * p - vc[0] * r,
+            vc[0] * q - vc[1] * p,
+        ];
+        let an = &current.accel_ned_mps2;
+        if an.x != 0.0 || an.y != 0.0 || an.z != 0.0 {
+            for (i, d) in vc_dot.iter_mut().enumerate() {
+                *d += dot_col(i, an);
+            }
         }
-        let nu_c = stack(&vc_body, &Vector3::zeros());
-        let nu_c_dot = stack(&vc_dot_body, &Vector3::zeros());
-        let nu_r = nu - nu_c;
-        let rhs = tau
-            - self.coriolis_force(&nu_r)
-            - self.damping_force(&nu_r)
-            - self.params.hydrostatics.restoring_from_down(down_body);
-        nu_c_dot + self.m_inv * rhs
+        let nu_r = [u - vc[0], v - vc[1], w - vc[2], p, q, r];
+
+        // Kirchhoff Coriolis C(ν_r)ν_r = [ω × a ; ν₁ × a + ω × b], (a, b) = M ν_r.
+        let [a0, a1, a2, b0, b1, b2] = mat6_mul(&self.m_sym, &nu_r);
+        let [ur, vr, wr, ..] = nu_r;
+        let mut cor = [
+            q * a2 - r * a1,
+            r * a0 - p * a2,
+            p * a1 - q * a0,
+            (vr * a2 - wr * a1) + (q * b2 - r * b1),
+            (wr * a0 - ur * a2) + (r * b0 - p * b2),
+            (ur * a1 - vr * a0) + (p * b1 - q * b0),
+        ];
+        if self.params.munk == MunkMoment::Zeroed {
+            // Remove the zeroed C_A entries' contribution: C_A[4][0] = −a3,
+            // C_A[4][3] = −b3, C_A[5][0] = a2, C_A[5][1] = −a1 with (a, b) = M_A ν_r.
+            let pa = match &self.added_mass_diag {
+                Some(d) => [
+                    d[0] * ur,
+                    d[1] * vr,
+                    d[2] * wr,
+                    d[3] * p,
+                    d[4] * q,
+                    d[5] * r,
+                ],
+                None => mat6_mul(&self.m_a_sym, &nu_r),
+            };
+            cor[4] -= -pa[2] * ur - pa[5] * p;
+            cor[5] -= pa[1] * ur - pa[0] * vr;
+        }
+
+        let damp = self.damping_force(&Vector6::from(nu_r));
+
+        // g(η) = −[(W − B) k ; (W r_g − B r_b) × k].
+        let k = down_body;
+        let wb = self.net_weight_n;
+        let sa = &self.restoring_arm_nm;
+        let g = [
+            -(k.x * wb),
+            -(k.y * wb),
+            -(k.z * wb),
+            -(sa.y * k.z - sa.z * k.y),
+            -(sa.z * k.x - sa.x * k.z),
+            -(sa.x * k.y - sa.y * k.x),
+        ];
+
+        let mut rhs = [0.0; 6];
+        for (i, x) in rhs.iter_mut().enumerate() {
+            *x = tau[i] - cor[i] - damp[i] - g[i];
+        }
+        let acc = mat6_mul(&self.m_inv, &rhs);
+        Vector6::new(
+            vc_dot[0] + acc[0],
+            vc_dot[1] + acc[1],
+            vc_dot[2] + acc[2],
+            acc[3],
+            acc[4],
+            acc[5],
+        )
     }
 
     /// ν̇ for ZYX Euler angles η.
@@ -631,5 +721,117 @@ mod tests {
         let lhs = pm.m_rb() * nu_dot + pm.coriolis_rb(&nu) * nu;
         let rhs = pm.m_rb() * nu_r_dot + pm.coriolis_rb(&nu_r) * nu_r;
         assert!((lhs - rhs).norm() < 1e-12, "{lhs} vs {rhs}");
+    }
+}
+
+#[cfg(test)]
+mod scalar_path_tests {
+    use super::*;
+    use crate::kinematics::Attitude;
+
+    /// ν̇ assembled from the vector-form terms, as the module docs write it.
+    fn nu_dot_vector_form(
+        pm: &ProcessModel,
+        att: &Attitude,
+        nu: &Vector6,
+        tau: &Vector6,
+        current: &CurrentSample,
+    ) -> Vector6 {
+        let r = att.ned_from_body();
+        let rt = r.transpose();
+        let vc = rt * current.vel_ned_mps;
+        let vc_dot = -ang(nu).cross(&vc) + rt * current.accel_ned_mps2;
+        let nu_r = nu - stack(&vc, &Vector3::zeros());
+        let rhs = tau
+            - pm.coriolis_force(&nu_r)
+            - pm.damping_force(&nu_r)
+            - pm.params()
+                .hydrostatics
+                .restoring_from_down(&att.down_in_body());
+        stack(&vc_dot, &Vector3::zeros()) + pm.mass_matrix_inv() * rhs
+    }
+
+    fn params(full_matrices: bool, munk: MunkMoment, form: DampingForm) -> ProcessParams {
+        let rb = RigidBody {
+            mass_kg: 6.1,
+            inertia_cg_kgm2: RigidBody::inertia_tensor(0.068, 0.097, 0.114, 0.003, -0.002, 0.001),
+            cg_from_co_m: Vector3::new(0.002, -0.001, 0.00559),
+        };
+        let mut added = Matrix6::from_diagonal(&Vector6::new(2.5, 3.0, 2.7, 0.02, 0.03, 0.03));
+        let mut linear = Matrix6::from_diagonal(&Vector6::new(1.0, 4.0, 5.0, 0.05, 0.08, 0.2));
+        if full_matrices {
+            added[(0, 4)] = 0.1;
+            added[(4, 0)] = 0.1;
+            added[(1, 5)] = -0.05;
+            added[(5, 1)] = -0.05;
+            linear[(0, 2)] = 0.3;
+            linear[(5, 1)] = -0.2;
+        }
+        ProcessParams {
+            rigid_body: rb,
+            added_mass: added,
+            damping: Damping {
+                linear,
+                quadratic: Vector6::new(4.5, 25.0, 20.0, 0.1, 0.2, 0.35),
+                form,
+            },
+            hydrostatics: Hydrostatics {
+                weight_n: 59.841,
+                buoyancy_n: 60.341,
+                cg_from_co_m: rb.cg_from_co_m,
+                cb_from_co_m: Vector3::new(0.001, 0.0005, -0.002),
+            },
+            munk,
+        }
+    }
+
+    #[test]
+    fn scalar_nu_dot_equals_the_vector_form_terms() {
+        let current = CurrentSample {
+            vel_ned_mps: Vector3::new(0.3, -0.2, 0.05),
+            accel_ned_mps2: Vector3::new(0.01, 0.02, -0.005),
+        };
+        let states = [
+            (
+                Vector6::new(1.0, 2.0, 5.0, 0.1, -0.2, 2.5),
+                Vector6::new(0.6, -0.2, 0.1, 0.3, -0.1, 0.4),
+            ),
+            (
+                Vector6::new(0.0, 0.0, 1.0, -1.2, 1.1, -7.0),
+                Vector6::new(-0.4, 0.5, -0.3, -0.8, 0.6, -1.1),
+            ),
+        ];
+        let tau = Vector6::new(12.0, -3.0, 7.0, 0.4, -0.2, 1.5);
+        let mut cases = 0;
+        for full in [false, true] {
+            for munk in [MunkMoment::Full, MunkMoment::Zeroed] {
+                for form in [
+                    DampingForm::LinearQuadratic,
+                    DampingForm::Exponential { alpha_s_per_m: 2.0 },
+                ] {
+                    let pm = ProcessModel::new(params(full, munk, form)).unwrap();
+                    for (eta, nu) in &states {
+                        let att = Attitude::from_eta(eta);
+                        let got = pm.nu_dot_with_rotation(
+                            &att.ned_from_body(),
+                            &att.down_in_body(),
+                            nu,
+                            &tau,
+                            &current,
+                        );
+                        let want = nu_dot_vector_form(&pm, &att, nu, &tau, &current);
+                        let err = (got - want).norm();
+                        assert!(
+                            err <= 1e-12 * (1.0 + want.norm()),
+                            "full {full}, {munk:?}, {form:?}: {got} vs {want}"
+                        );
+                        let (_, nu_dot) = pm.state_derivative(eta, nu, &tau, &current);
+                        assert_eq!(nu_dot, got);
+                        cases += 1;
+                    }
+                }
+            }
+        }
+        assert_eq!(cases, 16);
     }
 }

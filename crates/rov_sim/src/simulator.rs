@@ -20,7 +20,6 @@
 
 use nalgebra::Vector3;
 use rov_dynamics::current::{CurrentModel, CurrentRamp, OceanCurrent};
-use rov_dynamics::integrators::rk4_step;
 use rov_dynamics::kinematics::Attitude;
 use rov_dynamics::models::{
     Environment, ExternalForce, InitialConditions, ModelState, VehicleModel, load_default_model,
@@ -269,12 +268,7 @@ impl Simulator {
         };
         let model = self.model.as_ref();
         let cmd = self.command;
-        let next = rk4_step(
-            |t, s: &ModelState| model.derivative(t, s, &cmd, &env),
-            t0,
-            &self.truth.state,
-            h,
-        );
+        let next = model.rk4_step(t0, &self.truth.state, &cmd, &env, h);
         let t1 = (self.step_index + 1) as f64 * h;
         if !next.is_finite() {
             return Err(DynamicsError::NonFinite {

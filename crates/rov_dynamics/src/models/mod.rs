@@ -467,6 +467,27 @@ pub trait VehicleModel: fmt::Debug + Send + Sync {
         d
     }
 
+    /// One classical RK4 step of length `h_s` from `(t_s, state)` with `cmd` held over the
+    /// step: the integrator of the simulator, [`advance`] and the model lab. The default
+    /// evaluates [`VehicleModel::derivative`] at the four stages. Models whose thrust does
+    /// not depend on the state override it with [`rk4_step_fixed_thrust`], which gives the
+    /// same result with the thrust computed once.
+    fn rk4_step(
+        &self,
+        t_s: f64,
+        state: &ModelState,
+        cmd: &ThrustPct,
+        env: &Environment<'_>,
+        h_s: f64,
+    ) -> ModelState {
+        rk4_step(
+            |tt, s: &ModelState| self.derivative(tt, s, cmd, env),
+            t_s,
+            state,
+            h_s,
+        )
+    }
+
     /// A boxed copy.
     fn clone_box(&self) -> Box<dyn VehicleModel>;
 
@@ -478,6 +499,34 @@ impl Clone for Box<dyn VehicleModel> {
     fn clone(&self) -> Self {
         self.clone_box()
     }
+}
+
+/// [`VehicleModel::rk4_step`] for a model whose stages (a) and (b) ignore the state and
+/// which has no extra-state dynamics (models 1, 2 and 3): the thrust τ is computed once
+/// per step instead of at each of the four stages. τ_ext and the current are still
+/// evaluated at every stage, so the result is identical to the generic step.
+#[inline]
+pub fn rk4_step_fixed_thrust<M: VehicleModel + ?Sized>(
+    model: &M,
+    t_s: f64,
+    state: &ModelState,
+    cmd: &ThrustPct,
+    env: &Environment<'_>,
+    h_s: f64,
+) -> ModelState {
+    let tau_thrust = model.generalized_force(&model.thruster_forces(cmd, state), state);
+    rk4_step(
+        |tt, s: &ModelState| {
+            let mut tau = tau_thrust;
+            if let Some(ext) = env.external {
+                tau += ext.tau_body(tt, &s.eta, &s.nu);
+            }
+            model.dynamics(s, &tau, &env.current.at(tt))
+        },
+        t_s,
+        state,
+        h_s,
+    )
 }
 
 /// Integrates `state` from `t0_s` over `duration_s` with command `cmd` held, in equal RK4
@@ -500,12 +549,7 @@ pub fn advance(
     let mut x = *state;
     for i in 0..n {
         let t = t0_s + i as f64 * h;
-        x = rk4_step(
-            |tt, s: &ModelState| model.derivative(tt, s, cmd, env),
-            t,
-            &x,
-            h,
-        );
+        x = model.rk4_step(t, &x, cmd, env, h);
         if !x.all_finite() {
             return Err(DynamicsError::NonFinite {
                 time_s: t + h,
