@@ -11,8 +11,10 @@
 //! * `station-rx` / `station-tx`: move bytes between the transport and the control
 //!   thread (blocking I/O never runs on the control thread).
 //! * `station-watchdog`: if no control tick completes within three periods it sends a
-//!   pre-encoded neutral control frame through the tx thread every period until ticks
-//!   resume, and the runtime raises [`AlarmKind::ControlStall`] (style G2).
+//!   neutral control frame through the tx thread every period until ticks resume, and the
+//!   runtime raises [`AlarmKind::ControlStall`] (style G2). The frame zeroes thrust and
+//!   both autopilots but keeps the lights and camera of the last frame sent, so a stalled
+//!   station does not leave the pilot in the dark.
 //! * `station-vehicle` (sim mode): the simulated Pro 4 (`rov_vehicle::runner`) on the other
 //!   end of an in-memory transport, on wall time, so sim and serial share every line of
 //!   the station's code.
@@ -271,6 +273,9 @@ pub(crate) struct Shared {
     pub watchdog_trips: AtomicU64,
     pub watchdog_frames: AtomicU64,
     pub watchdog_max_gap_us: AtomicU64,
+    /// Lights and camera of the last control frame, kept by the watchdog's neutral
+    /// frames (see `live::pack_kept`).
+    pub watchdog_kept: AtomicU64,
     pub commands_dropped: AtomicU64,
     pub running: AtomicBool,
     pub clock: MonoClock,
@@ -287,6 +292,7 @@ impl Shared {
             watchdog_trips: AtomicU64::new(0),
             watchdog_frames: AtomicU64::new(0),
             watchdog_max_gap_us: AtomicU64::new(0),
+            watchdog_kept: AtomicU64::new(0),
             commands_dropped: AtomicU64::new(0),
             running: AtomicBool::new(true),
             clock,

@@ -6,7 +6,7 @@ use std::sync::atomic::Ordering;
 use std::sync::mpsc::{Receiver, RecvTimeoutError, SyncSender, TryRecvError, sync_channel};
 use std::time::Duration;
 
-use firmware_proto::{ControlBlock, flags};
+use firmware_proto::{ControlBlock, NodeId, flags};
 use rov_control::ModelSet;
 use rov_driver::{
     ByteSink, ByteSource, Link, MonoClock, PRO4_BAUD, SerialTransport, Transport, memory_pair,
@@ -81,13 +81,8 @@ pub(crate) fn start(cfg: RuntimeConfig, models: ModelSet) -> Result<StationHandl
     {
         let shared = Arc::clone(&shared);
         let tx = tx_tx.clone();
-        let mut neutral = vec![0u8; 32];
-        let n = ControlBlock::ALL_STOP
-            .encode_request(node, flags::NONE, &mut neutral)
-            .unwrap_or(0);
-        neutral.truncate(n);
         threads.push(spawn_named("station-watchdog", move || {
-            watchdog_loop(&shared, &tx, &neutral, period_us);
+            watchdog_loop(&shared, &tx, node, period_us);
         })?);
     }
     #[cfg(feature = "gamepad")]
@@ -149,7 +144,45 @@ fn tx_loop(mut sink: Box<dyn ByteSink>, input: &Receiver<Vec<u8>>, shared: &Shar
 
 /// G2: no tick completed within three periods → neutral frames every period until the
 /// ticks resume.
-fn watchdog_loop(shared: &Shared, tx: &SyncSender<Vec<u8>>, neutral: &[u8], period_us: u64) {
+/// What the watchdog keeps of the last control frame sent, packed for an atomic: lights,
+/// camera tilt, focus and camera control, plus a "valid" bit. A stalled station zeroes
+/// thrust and both autopilots but must not switch the lights off or move the camera: the
+/// pilot needs the picture to recover.
+pub(crate) fn pack_kept(cmd: &ControlBlock) -> u64 {
+    (1 << 32)
+        | u64::from(cmd.lights_pct)
+        | u64::from(cmd.tilt_deg.to_ne_bytes()[0]) << 8
+        | u64::from(cmd.focus_pct.to_ne_bytes()[0]) << 16
+        | u64::from(cmd.camera_control) << 24
+}
+
+/// The watchdog's neutral command: [`ControlBlock::ALL_STOP`] with the kept lights and
+/// camera (none kept yet: all stop).
+pub(crate) fn watchdog_block(kept: u64) -> ControlBlock {
+    if kept >> 32 == 0 {
+        return ControlBlock::ALL_STOP;
+    }
+    let [lights, tilt, focus, camera, ..] = kept.to_le_bytes();
+    ControlBlock {
+        lights_pct: lights,
+        tilt_deg: i8::from_ne_bytes([tilt]),
+        focus_pct: i8::from_ne_bytes([focus]),
+        camera_control: camera,
+        ..ControlBlock::ALL_STOP
+    }
+}
+
+/// The encoded watchdog frame for the kept camera state.
+pub(crate) fn watchdog_frame(kept: u64, node: NodeId) -> Vec<u8> {
+    let mut frame = vec![0u8; 32];
+    let n = watchdog_block(kept)
+        .encode_request(node, flags::NONE, &mut frame)
+        .unwrap_or(0);
+    frame.truncate(n);
+    frame
+}
+
+fn watchdog_loop(shared: &Shared, tx: &SyncSender<Vec<u8>>, node: NodeId, period_us: u64) {
     let poll = Duration::from_micros((period_us / 4).max(500));
     let mut tripped = false;
     let mut last_sent = 0u64;
@@ -166,7 +199,8 @@ fn watchdog_loop(shared: &Shared, tx: &SyncSender<Vec<u8>>, neutral: &[u8], peri
                 shared.watchdog_trips.fetch_add(1, Ordering::Relaxed);
                 last_sent = 0;
             }
-            if now.saturating_sub(last_sent) >= period_us && tx.try_send(neutral.to_vec()).is_ok() {
+            let frame = watchdog_frame(shared.watchdog_kept.load(Ordering::Relaxed), node);
+            if now.saturating_sub(last_sent) >= period_us && tx.try_send(frame).is_ok() {
                 if last_sent == 0 {
                     shared
                         .watchdog_max_gap_us
@@ -277,6 +311,11 @@ fn control_loop(
                 );
                 t.stats()
             };
+            if let Some((_, sent)) = link.last_control_sent() {
+                shared
+                    .watchdog_kept
+                    .store(pack_kept(&sent), Ordering::Relaxed);
+            }
             shared.last_tick_us.store(clock.now_us(), Ordering::Relaxed);
             engine.publish(Some(stats));
         }

@@ -140,10 +140,16 @@ fn g2_a_blocked_control_tick_sends_neutral_within_four_periods() {
         }));
         std::thread::sleep(Duration::from_millis(20));
     }
+    h.command(RuntimeCommand::Camera(CameraCommand::Lights(60.0)));
+    std::thread::sleep(Duration::from_millis(100));
     h.command(RuntimeCommand::InjectStall(Duration::from_millis(500)));
     std::thread::sleep(Duration::from_millis(800));
     let s = h.tick_stats();
     eprintln!("G2: {s:?}");
+    // The neutral frames keep the lights the pilot had on.
+    let kept = live::watchdog_block(h.shared.watchdog_kept.load(Ordering::Relaxed));
+    assert_eq!(kept.lights_pct, 60, "{kept:?}");
+    assert!(rov_driver::failsafe::is_neutral(&kept));
     assert!(s.watchdog_trips >= 1, "{s:?}");
     assert!(
         s.watchdog_frames >= 10,
@@ -162,6 +168,56 @@ fn g2_a_blocked_control_tick_sends_neutral_within_four_periods() {
     wait_for(&h, "the acknowledgement", 2.0, |v| {
         v.alarms.iter().all(|a| a.kind != AlarmKind::ControlStall)
     });
+}
+
+/// The watchdog's neutral frame zeroes thrust and both autopilots but keeps the lights
+/// and camera of the last frame sent, through the real encoder and decoder.
+#[test]
+fn watchdog_frame_is_neutral_but_keeps_lights_and_camera() {
+    use firmware_proto::{ControlBlock, Frame, NodeId};
+    let node = NodeId::ROV;
+    let decode = |bytes: &[u8]| ControlBlock::from_frame(&Frame::parse(bytes).unwrap()).unwrap();
+
+    // Nothing sent yet: all stop.
+    assert_eq!(
+        decode(&live::watchdog_frame(0, node)),
+        ControlBlock::ALL_STOP
+    );
+
+    let flying = ControlBlock {
+        port_pct: 80,
+        starboard_pct: -60,
+        vertical_pct: 45,
+        lights_pct: 75,
+        tilt_deg: -35,
+        focus_pct: -12,
+        camera_control: 0x05,
+        camera_buttons: 0x02,
+        depth_target_mbar: Some(1300),
+        heading_target_deg: Some(270),
+    };
+    let sent = decode(&live::watchdog_frame(live::pack_kept(&flying), node));
+    assert!(rov_driver::failsafe::is_neutral(&sent), "{sent:?}");
+    assert_eq!(
+        (
+            sent.lights_pct,
+            sent.tilt_deg,
+            sent.focus_pct,
+            sent.camera_control
+        ),
+        (75, -35, -12, 0x05)
+    );
+    // A button press is an event, not a state: it is not repeated.
+    assert_eq!(sent.camera_buttons, 0);
+    // Lights off stay off (the valid bit, not the value, says something was kept).
+    let dark = ControlBlock {
+        lights_pct: 0,
+        ..flying
+    };
+    assert_eq!(
+        decode(&live::watchdog_frame(live::pack_kept(&dark), node)).lights_pct,
+        0
+    );
 }
 
 fn virtual_armed() -> (VirtualStation, StationHandle) {
