@@ -6,12 +6,13 @@
 //! is due (with ~0.1 ms granularity), and it waits for requests with a read timeout that
 //! ends at the next scheduled event.
 
-use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 use std::time::Duration;
 
 use rov_driver::{MonoClock, Transport, TransportError};
+use rov_sim::TruthState;
 
 use crate::vehicle::{Vehicle, VehicleError};
 
@@ -57,12 +58,37 @@ impl VehicleRunner {
     }
 }
 
+/// The latest simulator truth of a running vehicle, for a station that records it
+/// (`/truth/state` of simulated sessions). The runner refreshes it whenever its
+/// simulation has advanced and the lock is free; a reader never blocks the vehicle.
+pub type TruthTap = Arc<Mutex<Option<TruthState>>>;
+
 /// Runs `vehicle` on `transport` in a new thread; vehicle time 0 is now.
 #[must_use]
 pub fn spawn(vehicle: Vehicle, transport: Box<dyn Transport>, cfg: RunnerConfig) -> VehicleRunner {
+    spawn_inner(vehicle, transport, cfg, None)
+}
+
+/// [`spawn`], publishing the simulator truth to `tap` as the vehicle runs.
+#[must_use]
+pub fn spawn_with_truth(
+    vehicle: Vehicle,
+    transport: Box<dyn Transport>,
+    cfg: RunnerConfig,
+    tap: TruthTap,
+) -> VehicleRunner {
+    spawn_inner(vehicle, transport, cfg, Some(tap))
+}
+
+fn spawn_inner(
+    vehicle: Vehicle,
+    transport: Box<dyn Transport>,
+    cfg: RunnerConfig,
+    tap: Option<TruthTap>,
+) -> VehicleRunner {
     let stop = Arc::new(AtomicBool::new(false));
     let flag = Arc::clone(&stop);
-    let join = std::thread::spawn(move || run(vehicle, transport, &flag, cfg));
+    let join = std::thread::spawn(move || run(vehicle, transport, &flag, cfg, tap.as_ref()));
     VehicleRunner { stop, join }
 }
 
@@ -71,14 +97,25 @@ fn run(
     mut transport: Box<dyn Transport>,
     stop: &AtomicBool,
     cfg: RunnerConfig,
+    tap: Option<&TruthTap>,
 ) -> Result<Vehicle, VehicleError> {
     let clock = MonoClock::new();
     let mut buf = vec![0u8; 4096];
     let mut out = Vec::with_capacity(512);
     let idle_us = u64::try_from(cfg.idle_wait.as_micros()).unwrap_or(2_000);
+    let mut published_s = f64::NEG_INFINITY;
     while !stop.load(Ordering::Relaxed) {
         let now = clock.now_us();
         vehicle.advance_to(now)?;
+        if let Some(tap) = tap {
+            let truth = vehicle.sim().truth();
+            if truth.time_s > published_s
+                && let Ok(mut slot) = tap.try_lock()
+            {
+                *slot = Some(*truth);
+                published_s = truth.time_s;
+            }
+        }
         out.clear();
         if vehicle.poll_output(now, &mut out) > 0 {
             transport.send(&out)?;

@@ -96,6 +96,7 @@ fn fast_builtin_dive_is_recorded_whole_and_flies_the_script() {
         ("/telemetry/status", 250),
         ("/link/stats", 100),
         ("/session/info", 1),
+        ("/truth/state", 2950),
     ] {
         let n = topics[topic].as_u64().unwrap_or(0);
         assert!(n >= min, "{topic}: {n} < {min}");
@@ -188,6 +189,18 @@ fn real_time_recording_runs_on_the_wall_clock() {
     let d = j["duration_s"].as_f64().unwrap();
     assert!((2.5..4.0).contains(&d), "session {d} s");
     assert!(j["topics"]["/telemetry/nav"].as_u64().unwrap() > 100, "{j}");
+    // The simulated vehicle's truth, taken from its own thread, is recorded beside the
+    // telemetry and agrees with the measured depth (sensor noise aside).
+    assert!(j["topics"]["/truth/state"].as_u64().unwrap() > 100, "{j}");
+    let session = rov_session::open(&out).unwrap();
+    let truth = session.records::<rov_session::TruthRecord>().unwrap();
+    let nav = session.records::<rov_session::NavRecord>().unwrap();
+    let (t_truth, last_truth) = truth.last().unwrap();
+    let (_, last_nav) = nav.iter().rev().find(|(t, _)| t <= t_truth).unwrap();
+    assert!(
+        (last_truth.depth_m - last_nav.depth_m).abs() < 0.1,
+        "truth {last_truth:?} vs nav {last_nav:?}"
+    );
 }
 
 #[test]

@@ -54,6 +54,8 @@ pub(crate) struct Engine {
     tilt_deg: i8,
     focus_pct: i8,
     recorder: Option<Recorder>,
+    /// Live sim mode: the vehicle thread's latest truth, for `/truth/state`.
+    truth_tap: Option<rov_vehicle::runner::TruthTap>,
     shared: Arc<Shared>,
     pending: Vec<HistorySample>,
     ever_connected: bool,
@@ -138,6 +140,7 @@ impl Engine {
             tilt_deg: 0,
             focus_pct: 0,
             recorder: None,
+            truth_tap: None,
             shared,
             pending: Vec::new(),
             ever_connected: false,
@@ -158,6 +161,34 @@ impl Engine {
     fn record(&self, item: impl FnOnce(u64) -> RecordItem, now_us: u64) {
         if let Some(r) = &self.recorder {
             r.send(item(r.t_ns(now_us)));
+        }
+    }
+
+    /// Records `/truth/state` from the simulated vehicle's thread (live sim mode).
+    pub fn attach_truth_tap(&mut self, tap: rov_vehicle::runner::TruthTap) {
+        self.truth_tap = Some(tap);
+    }
+
+    /// Records the attached tap's latest truth, at most one vehicle-runner wake-up
+    /// (≈ 2 ms) old. Never waits for the vehicle thread.
+    pub fn record_tapped_truth(&self, now_us: u64) {
+        let latest = self
+            .truth_tap
+            .as_ref()
+            .and_then(|t| t.try_lock().ok())
+            .and_then(|slot| *slot);
+        if let Some(truth) = latest {
+            self.record_truth(&truth, now_us);
+        }
+    }
+
+    /// Records the simulated vehicle's truth (`/truth/state`) when a recording is running.
+    /// The station's control path never reads it: truth is for the engineer comparing
+    /// the estimate with reality afterwards.
+    pub fn record_truth(&self, truth: &rov_sim::TruthState, now_us: u64) {
+        if self.recorder.is_some() {
+            let rec = truth_record(truth);
+            self.record(|t| RecordItem::Truth(t, rec), now_us);
         }
     }
 
@@ -665,5 +696,25 @@ impl Engine {
     /// Finishes a recording (shutdown).
     pub fn finish(&mut self, now_us: u64) {
         self.stop_recording(now_us);
+    }
+}
+
+/// `/truth/state` from the simulator's truth: position of CO in NED, Euler angles
+/// (heading wrapped to 0..360°), body velocities and body rates.
+pub(crate) fn truth_record(t: &rov_sim::TruthState) -> rov_session::TruthRecord {
+    let (eta, nu) = (&t.state.eta, &t.state.nu);
+    rov_session::TruthRecord {
+        north_m: eta[0],
+        east_m: eta[1],
+        depth_m: eta[2],
+        roll_deg: eta[3].to_degrees(),
+        pitch_deg: eta[4].to_degrees(),
+        heading_deg: eta[5].to_degrees().rem_euclid(360.0),
+        u_mps: nu[0],
+        v_mps: nu[1],
+        w_mps: nu[2],
+        p_dps: nu[3].to_degrees(),
+        q_dps: nu[4].to_degrees(),
+        r_dps: nu[5].to_degrees(),
     }
 }

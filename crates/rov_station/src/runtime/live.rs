@@ -11,6 +11,7 @@ use rov_control::ModelSet;
 use rov_driver::{
     ByteSink, ByteSource, Link, MonoClock, PRO4_BAUD, SerialTransport, Transport, memory_pair,
 };
+use rov_vehicle::runner::TruthTap;
 use rov_vehicle::{RunnerConfig, Vehicle, VehicleConfig, VehicleRunner};
 
 use crate::runtime::engine::{Engine, Followup};
@@ -43,16 +44,20 @@ pub(crate) fn start(cfg: RuntimeConfig, models: ModelSet) -> Result<StationHandl
     let node = link.config().node;
 
     // Transport (and the simulated vehicle on the other end in sim mode).
+    let mut truth_tap: Option<TruthTap> = None;
     let (transport, source, vehicle): (Box<dyn Transport>, Source, Option<VehicleRunner>) =
         match &cfg.connection {
             Connection::Sim => {
                 let (station_end, vehicle_end) = memory_pair();
                 let vehicle = Vehicle::with_model3(VehicleConfig::default(), cfg.sim_seed)?;
-                let runner = rov_vehicle::runner::spawn(
+                let tap = TruthTap::default();
+                let runner = rov_vehicle::runner::spawn_with_truth(
                     vehicle,
                     Box::new(vehicle_end),
                     RunnerConfig::default(),
+                    Arc::clone(&tap),
                 );
+                truth_tap = Some(tap);
                 (Box::new(station_end), Source::Sim, Some(runner))
             }
             Connection::Serial(path) => {
@@ -61,7 +66,10 @@ pub(crate) fn start(cfg: RuntimeConfig, models: ModelSet) -> Result<StationHandl
             }
         };
     let (source_half, sink_half) = transport.split()?;
-    let engine = Engine::new(cfg.clone(), models, Arc::clone(&shared), source)?;
+    let mut engine = Engine::new(cfg.clone(), models, Arc::clone(&shared), source)?;
+    if let Some(tap) = truth_tap {
+        engine.attach_truth_tap(tap);
+    }
 
     let (rx_tx, rx_rx) = sync_channel::<Rx>(RX_CAPACITY);
     let (tx_tx, tx_rx) = sync_channel::<Vec<u8>>(TX_CAPACITY);
@@ -293,6 +301,7 @@ fn control_loop(
         if now >= next_tick {
             engine.tick(&mut link, now);
             pump(&mut engine, &mut link, tx, now);
+            engine.record_tapped_truth(now);
             let stats = {
                 let mut t = lock(&shared.ticks);
                 t.record(next_tick, now);

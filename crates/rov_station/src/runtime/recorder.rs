@@ -13,7 +13,7 @@ use std::time::Duration;
 
 use rov_session::{
     AutopilotRecord, Direction, EventRecord, LinkRecord, NavRecord, ObserverRecord, PilotRecord,
-    SessionInfo, SessionWriter, StatusRecord, ThrustRecord, WriteSummary,
+    SessionInfo, SessionWriter, StatusRecord, ThrustRecord, TruthRecord, WriteSummary,
 };
 
 /// One item for the recorder; times are ns since the recording started.
@@ -37,6 +37,8 @@ pub enum RecordItem {
     Link(u64, LinkRecord),
     /// `/events`.
     Event(u64, EventRecord),
+    /// `/truth/state` (simulated vehicle only).
+    Truth(u64, TruthRecord),
 }
 
 /// Queue capacity, items (about 1.5 s of everything at 50 Hz).
@@ -198,6 +200,7 @@ fn write_item(w: &mut SessionWriter, item: &RecordItem) -> rov_session::Result<(
         RecordItem::Observer(t, r) => w.write(*t, r),
         RecordItem::Link(t, r) => w.write(*t, r),
         RecordItem::Event(t, r) => w.write(*t, r),
+        RecordItem::Truth(t, r) => w.write(*t, r),
     }
 }
 

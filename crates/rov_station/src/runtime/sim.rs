@@ -29,7 +29,7 @@ impl SimApp for App {
         self.engine.on_event(link, &event, now_us);
     }
 
-    fn on_tick(&mut self, link: &mut Link, _vehicle: &mut Vehicle, now_us: u64) {
+    fn on_tick(&mut self, link: &mut Link, vehicle: &mut Vehicle, now_us: u64) {
         loop {
             match self.cmds.try_recv() {
                 Ok(c) => {
@@ -45,6 +45,7 @@ impl SimApp for App {
             }
         }
         self.engine.tick(link, now_us);
+        self.engine.record_truth(vehicle.sim().truth(), now_us);
         let stats = {
             let mut t = lock(&self.shared.ticks);
             t.record(now_us, now_us);

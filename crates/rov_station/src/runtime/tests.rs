@@ -324,6 +324,7 @@ fn record_then_replay_through_the_same_pipeline() {
     st.advance(6.0).unwrap();
     let live = h.view();
     assert!(live.recording.path.is_some());
+    let truth_at_stop = *st.vehicle().sim().truth();
     h.stop_recording();
     st.advance(0.1).unwrap();
     let v = h.view();
@@ -343,9 +344,26 @@ fn record_then_replay_through_the_same_pipeline() {
         "/link/stats",
         "/events",
         "/session/info",
+        "/truth/state",
     ] {
         assert!(session.count(t) > 0, "{t}");
     }
+    // One truth sample per control tick, and the last one is the vehicle's state then.
+    let truth = session.records::<rov_session::TruthRecord>().unwrap();
+    assert!(
+        truth.len() + 2 >= session.count("/command/thrust"),
+        "{} truth vs {} thrust",
+        truth.len(),
+        session.count("/command/thrust")
+    );
+    let (_, last) = truth.last().unwrap();
+    let eta = truth_at_stop.state.eta;
+    assert!((last.depth_m - eta[2]).abs() < 1e-9, "{last:?} vs {eta}");
+    assert!(
+        (last.heading_deg - eta[5].to_degrees().rem_euclid(360.0)).abs() < 1e-9,
+        "{last:?}"
+    );
+    assert!(last.r_dps.is_finite() && last.u_mps.is_finite());
 
     let (mut rp, rh) = VirtualReplay::open(&path).unwrap();
     let v0 = rh.view();
