@@ -332,26 +332,12 @@ pub fn fit(
     bounds: Option<Vec<Bound>>,
     opts: &LmOptions,
 ) -> Result<Calibration, LabError> {
-    fit_with(model, runs, free, view, x0, bounds, opts, None)
+    fit_scaled(model, runs, free, view, x0, bounds, opts, None, &NOISE_ONLY)
 }
 
-/// [`fit`] with a starting Jacobian (Broyden updates afterwards, see
-/// [`crate::lm::minimize_with`]).
-#[allow(clippy::too_many_arguments)]
-pub fn fit_with(
-    model: &LabModel,
-    runs: &[Run],
-    free: &[Param],
-    view: View,
-    x0: Option<&[f64]>,
-    bounds: Option<Vec<Bound>>,
-    opts: &LmOptions,
-    j0: Option<nalgebra::DMatrix<f64>>,
-) -> Result<Calibration, LabError> {
-    fit_scaled(model, runs, free, view, x0, bounds, opts, j0, &NOISE_ONLY)
-}
-
-/// [`fit_with`] with channel misfit scales in the weights (see the module documentation).
+/// [`fit`] with an optional starting Jacobian `j0` (Broyden updates afterwards, see
+/// [`crate::lm::minimize_with`]) and channel misfit scales in the weights (see the
+/// module documentation).
 #[allow(clippy::too_many_arguments)]
 pub fn fit_scaled(
     model: &LabModel,

@@ -334,6 +334,19 @@ fn assert_first(d: &Diagnosis, effect: &str) {
     assert!(f.significant, "{}", f.explanation);
 }
 
+/// One hidden effect found: ranked first and significant, the held-out RMSE of `channel`
+/// down by ≥ 30 %, and its parameter `key` within 35 % of `truth` (in the reported unit).
+fn assert_found_alone(d: &Diagnosis, effect: &str, channel: &str, key: &str, truth: f64) {
+    assert_first(d, effect);
+    let cut = d.findings[0].validation_rmse_reduction_pct[channel];
+    assert!(cut >= 30.0, "{effect}: {channel} cut {cut} %");
+    let v = param(d, effect, key);
+    assert!(
+        (v - truth).abs() <= 0.35 * truth.abs(),
+        "{effect}: {key} = {v}, truth {truth}"
+    );
+}
+
 fn param(d: &Diagnosis, effect: &str, key: &str) -> f64 {
     d.findings
         .iter()
@@ -353,10 +366,13 @@ fn a_vertical_reverse_weakness_alone() {
         },
         true,
     );
-    assert_first(&d, "thrust-asymmetry");
-    assert!(d.findings[0].validation_rmse_reduction_pct["depth"] >= 30.0);
-    let r = param(&d, "thrust-asymmetry", "reverse_ratio_vertical");
-    assert!((r - 0.6).abs() <= 0.35 * 0.6, "reverse ratio {r}");
+    assert_found_alone(
+        &d,
+        "thrust-asymmetry",
+        "depth",
+        "reverse_ratio_vertical",
+        0.6,
+    );
 }
 
 #[test]
@@ -369,10 +385,14 @@ fn b_vertical_thruster_moment_arm_alone() {
         },
         false,
     );
-    assert_first(&d, "thruster-moment-arm");
-    assert!(d.findings[0].validation_rmse_reduction_pct["pitch"] >= 30.0);
-    let x = param(&d, "thruster-moment-arm", "vertical_arm_x_m");
-    assert!((x + 12.0).abs() <= 0.35 * 12.0, "arm {x} mm");
+    // The arm is reported in mm.
+    assert_found_alone(
+        &d,
+        "thruster-moment-arm",
+        "pitch",
+        "vertical_arm_x_m",
+        -12.0,
+    );
 }
 
 #[test]
@@ -428,10 +448,7 @@ fn e_heading_channel_thruster_lag() {
         },
         true,
     );
-    assert_first(&d, "thruster-lag");
-    assert!(d.findings[0].validation_rmse_reduction_pct["heading"] >= 30.0);
-    let tau = param(&d, "thruster-lag", "lag_time_constant_s");
-    assert!((tau - 0.25).abs() <= 0.35 * 0.25, "lag {tau} s");
+    assert_found_alone(&d, "thruster-lag", "heading", "lag_time_constant_s", 0.25);
 }
 
 /// A lag on the thrust *force* (a force that also decays slowly at switch-off, unlike a

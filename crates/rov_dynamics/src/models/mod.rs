@@ -403,6 +403,21 @@ impl Environment<'_> {
             external: None,
         }
     }
+
+    /// The total generalized force at one instant: the thrust τ plus τ_ext, if any.
+    #[inline]
+    pub fn total_tau(
+        &self,
+        tau_thrust: &Vector6,
+        time_s: f64,
+        eta: &Vector6,
+        nu: &Vector6,
+    ) -> Vector6 {
+        match self.external {
+            Some(ext) => tau_thrust + ext.tau_body(time_s, eta, nu),
+            None => *tau_thrust,
+        }
+    }
 }
 
 /// A vehicle model. See the module docs for the pipeline.
@@ -458,20 +473,29 @@ pub trait VehicleModel: fmt::Debug + Send + Sync {
         env: &Environment<'_>,
     ) -> ModelState {
         let forces = self.thruster_forces(cmd, state);
-        let mut tau = self.generalized_force(&forces, state);
-        if let Some(ext) = env.external {
-            tau += ext.tau_body(time_s, &state.eta, &state.nu);
-        }
+        let tau = env.total_tau(
+            &self.generalized_force(&forces, state),
+            time_s,
+            &state.eta,
+            &state.nu,
+        );
         let mut d = self.dynamics(state, &tau, &env.current.at(time_s));
         self.extra_dynamics(time_s, state, cmd, &mut d);
         d
     }
 
+    /// Whether stages (a) and (b) ignore the state and the model has no extra-state
+    /// dynamics (models 1, 2 and 3), so that [`VehicleModel::rk4_step`] may compute the
+    /// thrust once per step. Default: false.
+    fn thrust_is_state_independent(&self) -> bool {
+        false
+    }
+
     /// One classical RK4 step of length `h_s` from `(t_s, state)` with `cmd` held over the
-    /// step: the integrator of the simulator, [`advance`] and the model lab. The default
-    /// evaluates [`VehicleModel::derivative`] at the four stages. Models whose thrust does
-    /// not depend on the state override it with [`rk4_step_fixed_thrust`], which gives the
-    /// same result with the thrust computed once.
+    /// step: the integrator of the simulator and [`advance`]. The default evaluates
+    /// [`VehicleModel::derivative`] at the four stages, or goes through
+    /// [`rk4_step_fixed_thrust`] (same result, thrust computed once) when
+    /// [`VehicleModel::thrust_is_state_independent`].
     fn rk4_step(
         &self,
         t_s: f64,
@@ -480,6 +504,9 @@ pub trait VehicleModel: fmt::Debug + Send + Sync {
         env: &Environment<'_>,
         h_s: f64,
     ) -> ModelState {
+        if self.thrust_is_state_independent() {
+            return rk4_step_fixed_thrust(self, t_s, state, cmd, env, h_s);
+        }
         rk4_step(
             |tt, s: &ModelState| self.derivative(tt, s, cmd, env),
             t_s,
@@ -502,7 +529,8 @@ impl Clone for Box<dyn VehicleModel> {
 }
 
 /// [`VehicleModel::rk4_step`] for a model whose stages (a) and (b) ignore the state and
-/// which has no extra-state dynamics (models 1, 2 and 3): the thrust τ is computed once
+/// which has no extra-state dynamics (models 1 and 2; model 3 has its own 12-state
+/// version of the same step): the thrust τ is computed once
 /// per step instead of at each of the four stages. τ_ext and the current are still
 /// evaluated at every stage, so the result is identical to the generic step.
 #[inline]
@@ -517,10 +545,7 @@ pub fn rk4_step_fixed_thrust<M: VehicleModel + ?Sized>(
     let tau_thrust = model.generalized_force(&model.thruster_forces(cmd, state), state);
     rk4_step(
         |tt, s: &ModelState| {
-            let mut tau = tau_thrust;
-            if let Some(ext) = env.external {
-                tau += ext.tau_body(tt, &s.eta, &s.nu);
-            }
+            let tau = env.total_tau(&tau_thrust, tt, &s.eta, &s.nu);
             model.dynamics(s, &tau, &env.current.at(tt))
         },
         t_s,

@@ -26,9 +26,7 @@ use std::any::Any;
 use rov_types::{ConfigError, ParamFile};
 
 use super::param_util::quadratic_map;
-use super::{
-    Channel, Environment, ModelState, ThrusterForces, VehicleModel, rk4_step_fixed_thrust,
-};
+use super::{Channel, ModelState, ThrusterForces, VehicleModel};
 use crate::math::Vector6;
 use crate::process::CurrentSample;
 use crate::thrusters::{QuadraticThrustMap, ThrustPct};
@@ -225,15 +223,8 @@ impl VehicleModel for Model1 {
         planar_initial(ic.to_state())
     }
 
-    fn rk4_step(
-        &self,
-        t_s: f64,
-        state: &ModelState,
-        cmd: &ThrustPct,
-        env: &Environment<'_>,
-        h_s: f64,
-    ) -> ModelState {
-        rk4_step_fixed_thrust(self, t_s, state, cmd, env, h_s)
+    fn thrust_is_state_independent(&self) -> bool {
+        true
     }
 
     fn clone_box(&self) -> Box<dyn VehicleModel> {

@@ -22,9 +22,7 @@ use std::any::Any;
 use rov_types::{ConfigError, ParamFile};
 
 use super::model1::{planar_current, planar_eta_dot, planar_initial, planar_predicts};
-use super::{
-    Channel, Environment, ModelState, ThrusterForces, VehicleModel, rk4_step_fixed_thrust,
-};
+use super::{Channel, ModelState, ThrusterForces, VehicleModel};
 use crate::math::{Matrix6, Vector6, coriolis_times_nu};
 use crate::process::CurrentSample;
 use crate::thrusters::ThrustPct;
@@ -174,15 +172,8 @@ impl VehicleModel for Model2 {
         planar_initial(ic.to_state())
     }
 
-    fn rk4_step(
-        &self,
-        t_s: f64,
-        state: &ModelState,
-        cmd: &ThrustPct,
-        env: &Environment<'_>,
-        h_s: f64,
-    ) -> ModelState {
-        rk4_step_fixed_thrust(self, t_s, state, cmd, env, h_s)
+    fn thrust_is_state_independent(&self) -> bool {
+        true
     }
 
     fn clone_box(&self) -> Box<dyn VehicleModel> {

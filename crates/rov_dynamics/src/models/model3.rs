@@ -288,10 +288,7 @@ impl VehicleModel for Model3 {
         let tau_thrust = self.generalized_force(&self.thruster_forces(cmd, state), state);
         let x = rk4_step(
             |tt, s: &EtaNu| {
-                let mut tau = tau_thrust;
-                if let Some(ext) = env.external {
-                    tau += ext.tau_body(tt, &s.eta, &s.nu);
-                }
+                let tau = env.total_tau(&tau_thrust, tt, &s.eta, &s.nu);
                 let (eta, nu) =
                     self.process
                         .state_derivative(&s.eta, &s.nu, &tau, &env.current.at(tt));

@@ -699,22 +699,23 @@ impl Engine {
     }
 }
 
-/// `/truth/state` from the simulator's truth: position of CO in NED, Euler angles
-/// (heading wrapped to 0..360°), body velocities and body rates.
+/// `/truth/state` from the simulator's truth, in the units of the measured channels
+/// (`rov_dynamics::Channel::value`), with the heading wrapped to 0..360°.
 pub(crate) fn truth_record(t: &rov_sim::TruthState) -> rov_session::TruthRecord {
-    let (eta, nu) = (&t.state.eta, &t.state.nu);
+    use rov_dynamics::models::Channel;
+    let v = |ch: Channel| ch.value(&t.state);
     rov_session::TruthRecord {
-        north_m: eta[0],
-        east_m: eta[1],
-        depth_m: eta[2],
-        roll_deg: eta[3].to_degrees(),
-        pitch_deg: eta[4].to_degrees(),
-        heading_deg: eta[5].to_degrees().rem_euclid(360.0),
-        u_mps: nu[0],
-        v_mps: nu[1],
-        w_mps: nu[2],
-        p_dps: nu[3].to_degrees(),
-        q_dps: nu[4].to_degrees(),
-        r_dps: nu[5].to_degrees(),
+        north_m: v(Channel::North),
+        east_m: v(Channel::East),
+        depth_m: v(Channel::Depth),
+        roll_deg: v(Channel::Roll),
+        pitch_deg: v(Channel::Pitch),
+        heading_deg: v(Channel::Heading).rem_euclid(360.0),
+        u_mps: v(Channel::Surge),
+        v_mps: v(Channel::Sway),
+        w_mps: v(Channel::Heave),
+        p_dps: v(Channel::RollRate),
+        q_dps: v(Channel::PitchRate),
+        r_dps: v(Channel::YawRate),
     }
 }

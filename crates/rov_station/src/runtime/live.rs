@@ -207,8 +207,14 @@ fn watchdog_loop(shared: &Shared, tx: &SyncSender<Vec<u8>>, node: NodeId, period
                 shared.watchdog_trips.fetch_add(1, Ordering::Relaxed);
                 last_sent = 0;
             }
-            let frame = watchdog_frame(shared.watchdog_kept.load(Ordering::Relaxed), node);
-            if now.saturating_sub(last_sent) >= period_us && tx.try_send(frame).is_ok() {
+            if now.saturating_sub(last_sent) >= period_us
+                && tx
+                    .try_send(watchdog_frame(
+                        shared.watchdog_kept.load(Ordering::Relaxed),
+                        node,
+                    ))
+                    .is_ok()
+            {
                 if last_sent == 0 {
                     shared
                         .watchdog_max_gap_us
