@@ -3,11 +3,13 @@
 //! (protocol.md §7).
 
 use std::io::{self, Write};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
-use firmware_proto::{Deframer, DeviceType, Event, NodeId, Ping};
+use firmware_proto::NodeId;
 use serialport::{DataBits, FlowControl, Parity, SerialPort, StopBits};
 
+use super::PortGone;
+use super::probe::{ProbeReply, probe};
 use super::{ByteSink, ByteSource, SplitHalves, Transport};
 use crate::error::TransportError;
 
@@ -30,10 +32,7 @@ impl std::fmt::Debug for SerialTransport {
 }
 
 fn io_err(port: &str, source: io::Error) -> TransportError {
-    TransportError::Io {
-        port: port.to_string(),
-        source,
-    }
+    TransportError::from_io(port, source)
 }
 
 fn serial_err(port: &str, source: serialport::Error) -> TransportError {
@@ -116,6 +115,13 @@ fn recv_port(
         *current = timeout;
     }
     match port.read(buf) {
+        // serialport reads only after poll reported the port readable (a timeout is an
+        // error), so zero bytes into a non-empty buffer is end of file: a hung-up tty.
+        Ok(0) if !buf.is_empty() => Err(TransportError::Gone {
+            port: name.to_string(),
+            cause: PortGone::Eof,
+            detail: "read returned end of file".into(),
+        }),
         Ok(n) => Ok(n),
         Err(e)
             if matches!(
@@ -208,62 +214,6 @@ pub fn available_port_names() -> Result<Vec<String>, TransportError> {
     serialport::available_ports()
         .map(|ports| ports.into_iter().map(|p| p.port_name).collect())
         .map_err(|e| serial_err("enumeration", e))
-}
-
-/// A well-formed response to the autodetect ping.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct ProbeReply {
-    /// The port it came from.
-    pub port: String,
-    /// Responder's node ID.
-    pub node: NodeId,
-    /// Response FLAGS.
-    pub flags: u8,
-    /// Responder's device type.
-    pub device_type: Option<DeviceType>,
-    /// Ping to reply.
-    pub rtt: Duration,
-    /// The reply frame.
-    pub frame: Vec<u8>,
-}
-
-/// Sends the ping (`FA AF node 01 00 00 HC 00`) and waits up to `timeout` for any
-/// well-formed response (protocol.md §7 step 1: any valid response means a vehicle).
-///
-/// # Errors
-/// [`TransportError`] if the transport fails.
-pub fn probe(
-    transport: &mut dyn Transport,
-    node: NodeId,
-    timeout: Duration,
-) -> Result<Option<ProbeReply>, TransportError> {
-    let mut ping = [0u8; 8];
-    let n = Ping::encode_request(node, &mut ping).unwrap_or(0);
-    let start = Instant::now();
-    transport.send(ping.get(..n).unwrap_or_default())?;
-    let mut rx = Deframer::host();
-    let mut buf = [0u8; 512];
-    loop {
-        let elapsed = start.elapsed();
-        let Some(left) = timeout.checked_sub(elapsed) else {
-            return Ok(None);
-        };
-        let got = transport.recv(&mut buf, left.min(Duration::from_millis(20)))?;
-        let mut input = buf.get(..got).unwrap_or_default();
-        let now_us = u64::try_from(start.elapsed().as_micros()).unwrap_or(u64::MAX);
-        while let Some(event) = rx.feed(&mut input, now_us) {
-            if let Event::Frame { frame, .. } = event {
-                return Ok(Some(ProbeReply {
-                    port: transport.name(),
-                    node: frame.node(),
-                    flags: frame.flags(),
-                    device_type: frame.device_type(),
-                    rtt: start.elapsed(),
-                    frame: frame.as_bytes().to_vec(),
-                }));
-            }
-        }
-    }
 }
 
 /// What autodetect found on each candidate port.
