@@ -9,6 +9,8 @@
 //! * [`transport`]: an in-memory pipe, probing for the vehicle, what a vanished port
 //!   looks like; with feature `serial`: the serial port (`serialport`, no libudev),
 //!   pseudo-terminal pairs, port enumeration, by-id names and autodetect by ping.
+//! * [`reconnect`]: the sans-IO re-connection policy (backoff schedule, candidate
+//!   order, outage summary) that a runtime drives after a port vanished.
 //! * [`runner`]: wall-clock runners: a blocking loop, and with feature `tokio` a tokio
 //!   task with a handle.
 //!
@@ -38,6 +40,7 @@ pub mod config;
 pub mod error;
 pub mod failsafe;
 pub mod link;
+pub mod reconnect;
 pub mod runner;
 pub mod stats;
 pub mod telemetry;
@@ -47,16 +50,19 @@ pub use config::LinkConfig;
 pub use error::{ArmError, ConfigError, DriverError, TransportError};
 pub use failsafe::{Alarm, Failsafe, LatchedAlarm, is_neutral, neutral};
 pub use link::Link;
-pub use runner::{MonoClock, run_blocking};
+pub use reconnect::{
+    Candidate, CandidateSource, OutageSummary, Reconnect, ReconnectConfig, ReconnectStatus,
+};
 #[cfg(feature = "tokio")]
 pub use runner::{LinkHandle, LinkSnapshot, RunnerOptions, spawn};
+pub use runner::{MonoClock, run_blocking};
 pub use stats::{FailCause, LinkCounters, RttStats, RttSummary};
 pub use telemetry::{
     ExchangeKind, Health, LinkEvent, Phase, Request, RequestId, RequestOutcome, StatusTelemetry,
     Telemetry,
 };
 #[cfg(feature = "serial")]
-pub use transport::serial::{AutodetectReport, PRO4_BAUD, autodetect};
+pub use transport::serial::{AutodetectReport, BY_ID_DIR, PRO4_BAUD, autodetect, by_id_name};
 pub use transport::{
     ByteSink, ByteSource, MemoryTransport, PortGone, ProbeReply, SplitHalves, Transport,
     classify_io_error, memory_pair, probe, probe_with,

@@ -96,8 +96,7 @@ pub fn classify_io_error(e: &io::Error) -> Option<PortGone> {
     let text = e.to_string().to_lowercase();
     if text.contains("input/output error") || text.contains("i/o error") {
         Some(PortGone::Eio)
-    } else if text.contains("no such device or address") || text.contains("device not configured")
-    {
+    } else if text.contains("no such device or address") || text.contains("device not configured") {
         Some(PortGone::Enxio)
     } else if text.contains("no such device") {
         Some(PortGone::NoDevice)
@@ -153,10 +152,7 @@ mod tests {
             e(io::ErrorKind::Other, "No such device"),
             Some(PortGone::NoDevice)
         );
-        assert_eq!(
-            e(io::ErrorKind::UnexpectedEof, "eof"),
-            Some(PortGone::Eof)
-        );
+        assert_eq!(e(io::ErrorKind::UnexpectedEof, "eof"), Some(PortGone::Eof));
         // Not gone: permission, busy, invalid settings, unknown.
         assert_eq!(
             e(io::ErrorKind::PermissionDenied, "Permission denied"),

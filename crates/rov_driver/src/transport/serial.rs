@@ -3,6 +3,7 @@
 //! (protocol.md §7).
 
 use std::io::{self, Write};
+use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 use firmware_proto::NodeId;
@@ -216,6 +217,32 @@ pub fn available_port_names() -> Result<Vec<String>, TransportError> {
         .map_err(|e| serial_err("enumeration", e))
 }
 
+/// Where udev keeps the stable names of USB serial ports on Linux
+/// (`usb-<vendor>_<product>_<serial>-if<NN>-port<N>`, symlinks to `../../ttyUSBn`).
+pub const BY_ID_DIR: &str = "/dev/serial/by-id";
+
+/// The stable by-id name of the port at `path`: the entry of `dir` (normally
+/// [`BY_ID_DIR`]) that resolves to the same device as `path`, symlinks followed on both
+/// sides; `path` itself if it already is an entry of `dir`. `None` when there is none
+/// (no udev, not a USB adapter, a pty) or `path` does not resolve.
+#[must_use]
+pub fn by_id_name(path: &str, dir: &Path) -> Option<String> {
+    let p = Path::new(path);
+    if p.parent() == Some(dir) {
+        return Some(path.to_string());
+    }
+    let device = std::fs::canonicalize(p).ok()?;
+    let mut names: Vec<PathBuf> = std::fs::read_dir(dir)
+        .ok()?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .collect();
+    names.sort();
+    names
+        .into_iter()
+        .find(|n| std::fs::canonicalize(n).is_ok_and(|d| d == device))
+        .map(|n| n.to_string_lossy().into_owned())
+}
+
 /// What autodetect found on each candidate port.
 #[derive(Debug)]
 pub struct AutodetectReport {
@@ -254,4 +281,38 @@ pub fn autodetect(candidates: &[String], node: NodeId, timeout: Duration) -> Aut
         }
     }
     AutodetectReport { found: None, tried }
+}
+
+#[cfg(all(test, unix))]
+mod tests {
+    use super::*;
+
+    /// A udev-like tree in a temporary directory: `dev/ttyUSB0`, `dev/ttyUSB1` (plain
+    /// files standing in for device nodes) and `by-id/usb-A` → `../dev/ttyUSB1`.
+    #[test]
+    fn by_id_name_follows_links_on_both_sides() {
+        let root = std::env::temp_dir().join(format!("rov_driver_by_id_{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&root);
+        let dev = root.join("dev");
+        let by_id = root.join("by-id");
+        std::fs::create_dir_all(&dev).unwrap();
+        std::fs::create_dir_all(&by_id).unwrap();
+        std::fs::write(dev.join("ttyUSB0"), b"").unwrap();
+        std::fs::write(dev.join("ttyUSB1"), b"").unwrap();
+        std::os::unix::fs::symlink("../dev/ttyUSB1", by_id.join("usb-A")).unwrap();
+        // An alias of ttyUSB1 (like socat's link=) resolves too.
+        std::os::unix::fs::symlink(dev.join("ttyUSB1"), root.join("alias")).unwrap();
+        let s = |p: &Path| p.to_str().unwrap().to_string();
+        let want = Some(s(&by_id.join("usb-A")));
+        assert_eq!(by_id_name(&s(&dev.join("ttyUSB1")), &by_id), want);
+        assert_eq!(by_id_name(&s(&root.join("alias")), &by_id), want);
+        assert_eq!(by_id_name(&s(&by_id.join("usb-A")), &by_id), want);
+        assert_eq!(by_id_name(&s(&dev.join("ttyUSB0")), &by_id), None);
+        assert_eq!(by_id_name(&s(&dev.join("missing")), &by_id), None);
+        assert_eq!(
+            by_id_name(&s(&dev.join("ttyUSB1")), &root.join("no-such-dir")),
+            None
+        );
+        std::fs::remove_dir_all(&root).unwrap();
+    }
 }
