@@ -17,7 +17,7 @@
 //! # Features
 //!
 //! * `serial` (default): the serial transport, port listing, autodetect.
-//! * `tokio`: the tokio runner ([`spawn`], [`LinkHandle`]).
+//! * `tokio`: the tokio runner (`spawn`, `LinkHandle`).
 //!
 //! With no features the crate is the sans-IO link, failsafe, statistics, telemetry,
 //! re-connection policy, the transport traits, the in-memory pipe and the blocking

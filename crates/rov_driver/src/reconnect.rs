@@ -96,7 +96,7 @@ impl ReconnectConfig {
         check(
             "reconnect.summary_every_us",
             self.summary_every_us,
-            1_000_000,
+            100_000,
             3_600_000_000,
         )
     }
@@ -193,20 +193,33 @@ pub struct OutageSummary {
     pub failures: Vec<(String, u32)>,
 }
 
+impl OutageSummary {
+    /// "3 attempts: /dev/ttyUSB0: not present ×2; /dev/ttyUSB1: no answer ×1".
+    #[must_use]
+    pub fn attempts_text(&self) -> String {
+        let mut out = format!(
+            "{} attempt{}",
+            self.attempts,
+            if self.attempts == 1 { "" } else { "s" }
+        );
+        for (k, (what, n)) in self.failures.iter().enumerate() {
+            out.push_str(if k == 0 { ": " } else { "; " });
+            out.push_str(&format!("{what} ×{n}"));
+        }
+        out
+    }
+}
+
 impl fmt::Display for OutageSummary {
+    /// "lost 1.75 s ago (reason); 3 attempts: ...".
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(
             f,
-            "{} attempt{} in {:.2} s",
-            self.attempts,
-            if self.attempts == 1 { "" } else { "s" },
-            self.duration_us as f64 * 1e-6
-        )?;
-        for (k, (what, n)) in self.failures.iter().enumerate() {
-            let sep = if k == 0 { ": " } else { "; " };
-            write!(f, "{sep}{what} ×{n}")?;
-        }
-        Ok(())
+            "lost {:.2} s ago ({}); {}",
+            self.duration_us as f64 * 1e-6,
+            self.reason,
+            self.attempts_text()
+        )
     }
 }
 
@@ -605,7 +618,8 @@ mod tests {
         );
         assert_eq!(
             s.to_string(),
-            "12 attempts in 21.00 s: /dev/ttyUSB0: not present ×12; /dev/ttyUSB1: no answer ×12"
+            "lost 21.00 s ago (port gone (EIO): Input/output error); 12 attempts: \
+             /dev/ttyUSB0: not present ×12; /dev/ttyUSB1: no answer ×12"
         );
         assert_eq!(r.status(), None);
         assert_eq!(r.reconnected(23_000 * MS, "/dev/ttyUSB0", None), None);

@@ -1,5 +1,5 @@
 //! Runners that move bytes between a transport and a [`Link`] on the wall clock: a
-//! blocking loop ([`run_blocking`], always built) and a tokio task ([`spawn`], feature
+//! blocking loop ([`run_blocking`], always built) and a tokio task (`spawn`, feature
 //! `tokio`).
 
 use std::ops::ControlFlow;
