@@ -1038,8 +1038,8 @@ mod tests {
         assert!(link.poll_transmit(23_000).is_some());
     }
 
-    #[test]
-    fn timeout_degrades_then_loses_and_sends_neutral() {
+    /// A link connected at 1 ms (ping answered), armed, commanding 50/50/20 %.
+    fn armed_link() -> Link {
         let mut link = Link::new(cfg()).unwrap();
         link.poll_transmit(0).unwrap();
         link.handle_input(&ping_reply(), 1000);
@@ -1049,6 +1049,12 @@ mod tests {
             vertical_pct: 20.0,
         });
         link.arm(1000).unwrap();
+        link
+    }
+
+    #[test]
+    fn timeout_degrades_then_loses_and_sends_neutral() {
+        let mut link = armed_link();
         let f = link.poll_transmit(1000).unwrap().to_vec();
         assert_eq!(&f[7..9], &[50, 0]);
         let mut t = 1000;
@@ -1102,15 +1108,7 @@ mod tests {
 
     #[test]
     fn port_lost_loses_at_once_and_port_opened_probes_neutral_at_once() {
-        let mut link = Link::new(cfg()).unwrap();
-        link.poll_transmit(0).unwrap();
-        link.handle_input(&ping_reply(), 1000);
-        link.set_thrust(&PhysicsThrust {
-            port_pct: 50.0,
-            starboard_pct: 50.0,
-            vertical_pct: 20.0,
-        });
-        link.arm(1000).unwrap();
+        let mut link = armed_link();
         link.poll_transmit(1000).unwrap();
         link.handle_input(&nav_reply(1100), 6000);
         link.poll_transmit(21_000).unwrap();

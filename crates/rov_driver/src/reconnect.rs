@@ -28,6 +28,7 @@
 use std::collections::BTreeMap;
 use std::fmt;
 
+use crate::config::check;
 use crate::error::ConfigError;
 
 /// Settings of the re-connection policy. Times in µs of the caller's clock.
@@ -54,18 +55,6 @@ impl Default for ReconnectConfig {
             probe_timeout_us: 200_000,
             summary_every_us: 60_000_000,
         }
-    }
-}
-
-fn check(field: &'static str, value: u64, min: u64, max: u64) -> Result<(), ConfigError> {
-    if (min..=max).contains(&value) {
-        Ok(())
-    } else {
-        Err(ConfigError {
-            field,
-            value: value.to_string(),
-            allowed: format!("{min}..={max}"),
-        })
     }
 }
 
