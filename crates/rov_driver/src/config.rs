@@ -85,7 +85,13 @@ impl Default for LinkConfig {
     }
 }
 
-fn check(field: &'static str, value: u64, min: u64, max: u64) -> Result<(), ConfigError> {
+/// `value` within `min..=max`, or the error naming `field`.
+pub(crate) fn check(
+    field: &'static str,
+    value: u64,
+    min: u64,
+    max: u64,
+) -> Result<(), ConfigError> {
     if (min..=max).contains(&value) {
         Ok(())
     } else {

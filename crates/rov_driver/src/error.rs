@@ -6,7 +6,18 @@ use std::io;
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum TransportError {
-    /// An I/O error from the operating system (unplug, EIO, ...).
+    /// The device went away (unplugged adapter, closed pty): the port must be opened
+    /// again, maybe at another path. Not a frame error.
+    #[error("{port}: port gone ({cause}): {detail}")]
+    Gone {
+        /// Port name.
+        port: String,
+        /// How it showed.
+        cause: crate::transport::PortGone,
+        /// The operating system's text.
+        detail: String,
+    },
+    /// Any other I/O error from the operating system.
     #[error("{port}: I/O error: {source}")]
     Io {
         /// Port name.
@@ -16,6 +27,7 @@ pub enum TransportError {
         source: io::Error,
     },
     /// The serial-port library failed (open, configure, clone).
+    #[cfg(feature = "serial")]
     #[error("{port}: serial port error: {source}")]
     Serial {
         /// Port name.
@@ -33,6 +45,37 @@ pub enum TransportError {
     /// The operation is not available on this platform or transport.
     #[error("{0}")]
     Unsupported(String),
+}
+
+impl TransportError {
+    /// An I/O error on `port`, classified: [`TransportError::Gone`] when the device
+    /// went away ([`classify_io_error`](crate::transport::classify_io_error)),
+    /// [`TransportError::Io`] otherwise.
+    #[must_use]
+    pub fn from_io(port: &str, source: io::Error) -> Self {
+        match crate::transport::classify_io_error(&source) {
+            Some(cause) => Self::Gone {
+                port: port.to_string(),
+                cause,
+                detail: source.to_string(),
+            },
+            None => Self::Io {
+                port: port.to_string(),
+                source,
+            },
+        }
+    }
+
+    /// Why the port is gone, if this error means it is (a vanished device or a closed
+    /// pipe); `None` for errors that leave the port usable or are about something else.
+    #[must_use]
+    pub const fn port_gone(&self) -> Option<crate::transport::PortGone> {
+        match self {
+            Self::Gone { cause, .. } => Some(*cause),
+            Self::Closed { .. } => Some(crate::transport::PortGone::Closed),
+            _ => None,
+        }
+    }
 }
 
 /// A [`LinkConfig`](crate::LinkConfig) value out of range.

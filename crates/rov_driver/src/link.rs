@@ -36,6 +36,12 @@
 //!   response for `loss_timeout_us` → Lost: the exchange in flight is abandoned, the
 //!   failsafe disarms and latches its alarm, the phase goes back to SEARCHING, and a
 //!   neutral control frame is sent at once.
+//! * The port vanished ([`Link::on_port_lost`], told by the I/O side when a read or
+//!   write fails with [`TransportError::port_gone`](crate::TransportError::port_gone)):
+//!   lost at once, without waiting for T_loss; the exchange in flight fails as
+//!   [`FailCause::PortGone`]; nothing is sent until [`Link::on_port_opened`], after
+//!   which the first frame is a neutral probe, sent at once. The failsafe stays latched:
+//!   a re-opened port never re-arms.
 
 use std::collections::VecDeque;
 
@@ -134,6 +140,8 @@ pub struct Link {
     events: VecDeque<LinkEvent>,
     counters: LinkCounters,
     rtt: RttStats,
+    /// False between [`Link::on_port_lost`] and [`Link::on_port_opened`].
+    port_open: bool,
 }
 
 fn fail_cause_of(kind: DeframeErrorKind) -> FailCause {
@@ -224,6 +232,7 @@ impl Link {
             events: VecDeque::new(),
             counters: LinkCounters::default(),
             rtt: RttStats::new(cfg.rtt_window),
+            port_open: true,
             cfg,
         })
     }
@@ -343,6 +352,52 @@ impl Link {
         self.inflight.is_some()
     }
 
+    /// Whether the port is open (false between [`Link::on_port_lost`] and
+    /// [`Link::on_port_opened`]).
+    #[must_use]
+    pub const fn port_open(&self) -> bool {
+        self.port_open
+    }
+
+    /// The port vanished at `now_us` (an unplugged adapter, a closed pty): the link is
+    /// lost at once (the failsafe disarms and latches, as after T_loss), the exchange in
+    /// flight fails as [`FailCause::PortGone`], partial input is dropped, and nothing is
+    /// sent until [`Link::on_port_opened`]. A second call before that does nothing.
+    pub fn on_port_lost(&mut self, now_us: u64) {
+        if !self.port_open {
+            return;
+        }
+        self.port_open = false;
+        self.counters.port_losses += 1;
+        self.counters.flushed_bytes += self.rx.reset() as u64;
+        if let Some(f) = self.inflight.take() {
+            self.fail(f.kind, FailCause::PortGone, now_us);
+        }
+        if self.health != Health::Lost {
+            self.lose(now_us);
+        } else {
+            // Searching or never connected: stay lost, but restart any INIT sequence.
+            self.failsafe.disarm();
+            if self.phase != Phase::Searching {
+                self.phase = Phase::Searching;
+                self.state_changed(now_us);
+            }
+        }
+    }
+
+    /// A port is open again at `now_us` (the same device or another one the vehicle
+    /// answered on): the link probes at once with a neutral control write (or the ping
+    /// if it never connected) and connects as usual. The failsafe stays disarmed and its
+    /// alarm latched until the pilot re-arms.
+    pub fn on_port_opened(&mut self, now_us: u64) {
+        if self.port_open {
+            return;
+        }
+        self.port_open = true;
+        self.counters.flushed_bytes += self.rx.reset() as u64;
+        self.next_probe_us = now_us;
+    }
+
     /// The counters (deframer counters included).
     #[must_use]
     pub fn counters(&self) -> LinkCounters {
@@ -366,7 +421,7 @@ impl Link {
 
     /// Bytes received at `now_us` (any chunking).
     pub fn handle_input(&mut self, bytes: &[u8], now_us: u64) {
-        if bytes.is_empty() {
+        if bytes.is_empty() || !self.port_open {
             return;
         }
         if let Some(f) = self.inflight.as_mut() {
@@ -386,6 +441,10 @@ impl Link {
     /// in the past: then at once).
     #[must_use]
     pub fn next_timeout(&self) -> Option<u64> {
+        if !self.port_open {
+            // Nothing to send and nothing to receive until the port is back.
+            return None;
+        }
         let mut t: Option<u64> = None;
         let mut min = |x: u64| t = Some(t.map_or(x, |t| t.min(x)));
         match &self.inflight {
@@ -413,10 +472,10 @@ impl Link {
     }
 
     /// The next frame to send at `now_us`, if one is due; the caller writes it to the
-    /// transport. Returns `None` while a request is in flight.
+    /// transport. Returns `None` while a request is in flight or the port is closed.
     pub fn poll_transmit(&mut self, now_us: u64) -> Option<&[u8]> {
         self.update(now_us);
-        if self.inflight.is_some() {
+        if self.inflight.is_some() || !self.port_open {
             return None;
         }
         let (kind, timeout_us, expect, len) = self.build_next(now_us)?;
@@ -979,8 +1038,8 @@ mod tests {
         assert!(link.poll_transmit(23_000).is_some());
     }
 
-    #[test]
-    fn timeout_degrades_then_loses_and_sends_neutral() {
+    /// A link connected at 1 ms (ping answered), armed, commanding 50/50/20 %.
+    fn armed_link() -> Link {
         let mut link = Link::new(cfg()).unwrap();
         link.poll_transmit(0).unwrap();
         link.handle_input(&ping_reply(), 1000);
@@ -990,6 +1049,12 @@ mod tests {
             vertical_pct: 20.0,
         });
         link.arm(1000).unwrap();
+        link
+    }
+
+    #[test]
+    fn timeout_degrades_then_loses_and_sends_neutral() {
+        let mut link = armed_link();
         let f = link.poll_transmit(1000).unwrap().to_vec();
         assert_eq!(&f[7..9], &[50, 0]);
         let mut t = 1000;
@@ -1039,5 +1104,88 @@ mod tests {
         assert!(!link.in_flight());
         let c = link.counters();
         assert_eq!((c.unexpected_frames, c.failed(), c.responses), (1, 0, 2));
+    }
+
+    #[test]
+    fn port_lost_loses_at_once_and_port_opened_probes_neutral_at_once() {
+        let mut link = armed_link();
+        link.poll_transmit(1000).unwrap();
+        link.handle_input(&nav_reply(1100), 6000);
+        link.poll_transmit(21_000).unwrap();
+        while link.poll_event().is_some() {}
+        // The port vanishes with a control exchange in flight, long before T_loss.
+        link.on_port_lost(25_000);
+        assert_eq!(
+            (link.phase(), link.health(), link.port_open()),
+            (Phase::Searching, Health::Lost, false)
+        );
+        assert!(!link.failsafe().is_armed());
+        assert!(link.failsafe().alarm().is_some_and(|a| a.cause_active));
+        let events: Vec<LinkEvent> = std::iter::from_fn(|| link.poll_event()).collect();
+        assert!(events.iter().any(|e| matches!(
+            e,
+            LinkEvent::ExchangeFailed {
+                cause: FailCause::PortGone,
+                ..
+            }
+        )));
+        assert!(events.iter().any(|e| matches!(
+            e,
+            LinkEvent::AlarmRaised {
+                time_us: 25_000,
+                ..
+            }
+        )));
+        let c = link.counters();
+        assert_eq!(
+            (c.failed_port_gone, c.port_losses, c.link_losses),
+            (1, 1, 1)
+        );
+        assert_eq!(c.failed_timeout, 0);
+        assert_eq!(c.responses + c.failed(), c.requests);
+        // Nothing goes out and nothing times out while the port is closed; late bytes
+        // from the old port are ignored.
+        assert_eq!(link.next_timeout(), None);
+        for t in (30_000..3_000_000).step_by(10_000) {
+            link.handle_timeout(t);
+            assert!(link.poll_transmit(t).is_none());
+        }
+        link.handle_input(&nav_reply(1100), 3_000_000);
+        assert_eq!(link.counters().requests, c.requests);
+        link.on_port_lost(3_000_001);
+        assert_eq!(link.counters().port_losses, 1);
+        // Re-opened: a neutral probe leaves at once; the link connects but stays
+        // disarmed with the alarm latched until the pilot re-arms.
+        link.on_port_opened(3_100_000);
+        assert_eq!(link.next_timeout(), Some(3_100_000));
+        let f = link.poll_transmit(3_100_000).unwrap().to_vec();
+        assert_eq!(&f[3..4], &[flags::NAV]);
+        let (_, block) = link.last_control_sent().unwrap();
+        assert!(is_neutral(&block));
+        link.handle_input(&nav_reply(1100), 3_106_000);
+        assert_eq!(
+            (link.phase(), link.health()),
+            (Phase::Running, Health::Connected)
+        );
+        assert!(!link.failsafe().is_armed());
+        assert!(link.failsafe().alarm().is_some_and(|a| !a.cause_active));
+        link.poll_transmit(3_106_000).unwrap();
+        let (_, block) = link.last_control_sent().unwrap();
+        assert!(is_neutral(&block), "thrust stays neutral until re-armed");
+        link.arm(3_200_000).unwrap();
+        assert!(link.failsafe().alarm().is_none());
+    }
+
+    #[test]
+    fn port_lost_before_any_connection_raises_nothing() {
+        let mut link = Link::new(cfg()).unwrap();
+        link.poll_transmit(0).unwrap();
+        link.on_port_lost(10_000);
+        assert!(link.failsafe().alarm().is_none());
+        assert_eq!(link.counters().failed_port_gone, 1);
+        link.on_port_opened(20_000);
+        // Never connected: the probe is still the ping.
+        let f = link.poll_transmit(20_000).unwrap().to_vec();
+        assert_eq!(f, [0xFA, 0xAF, 0x01, 0x01, 0x00, 0x00, 0x55, 0x00]);
     }
 }

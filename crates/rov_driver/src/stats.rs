@@ -24,6 +24,9 @@ pub enum FailCause {
     /// A valid frame arrived that did not match the request (node, FLAGS, address,
     /// device type or length).
     Unexpected,
+    /// The port vanished while the exchange was in flight
+    /// ([`Link::on_port_lost`](crate::Link::on_port_lost)); not a frame error.
+    PortGone,
 }
 
 impl FailCause {
@@ -35,6 +38,7 @@ impl FailCause {
             Self::Stall => 2,
             Self::Unexpected => 3,
             Self::TotalCheck | Self::HeaderCheck | Self::ExtLength => 4,
+            Self::PortGone => 5,
         }
     }
 
@@ -49,6 +53,7 @@ impl FailCause {
             Self::TotalCheck => "total check",
             Self::Stall => "stall",
             Self::Unexpected => "unexpected response",
+            Self::PortGone => "port gone",
         }
     }
 }
@@ -79,6 +84,10 @@ pub struct LinkCounters {
     pub failed_stall: u64,
     /// Failed exchanges: only non-matching valid frames arrived.
     pub failed_unexpected: u64,
+    /// Failed exchanges: the port vanished while they were in flight.
+    pub failed_port_gone: u64,
+    /// Times the port vanished ([`Link::on_port_lost`](crate::Link::on_port_lost)).
+    pub port_losses: u64,
     /// Valid frames that matched no outstanding request (late replies, other nodes).
     pub unexpected_frames: u64,
     /// Bytes thrown away when the input was flushed before a request.
@@ -102,6 +111,7 @@ impl LinkCounters {
             + self.failed_total_check
             + self.failed_stall
             + self.failed_unexpected
+            + self.failed_port_gone
     }
 
     /// The counter of one cause.
@@ -115,6 +125,7 @@ impl LinkCounters {
             FailCause::TotalCheck => self.failed_total_check,
             FailCause::Stall => self.failed_stall,
             FailCause::Unexpected => self.failed_unexpected,
+            FailCause::PortGone => self.failed_port_gone,
         }
     }
 
@@ -127,6 +138,7 @@ impl LinkCounters {
             FailCause::TotalCheck => &mut self.failed_total_check,
             FailCause::Stall => &mut self.failed_stall,
             FailCause::Unexpected => &mut self.failed_unexpected,
+            FailCause::PortGone => &mut self.failed_port_gone,
         };
         *c += 1;
     }

@@ -11,8 +11,8 @@ use std::time::{Duration, Instant};
 use common::{DepthHold, assert_accounting, thrust, try_arm, vehicle};
 use firmware_proto::NodeId;
 use rov_driver::{
-    Health, Link, LinkConfig, LinkEvent, MonoClock, Phase, RunnerOptions, SerialTransport,
-    autodetect, is_neutral, memory_pair, run_blocking,
+    ByteSink, ByteSource, Health, Link, LinkConfig, LinkEvent, MonoClock, Phase, RunnerOptions,
+    SerialTransport, autodetect, is_neutral, memory_pair, run_blocking,
 };
 use rov_vehicle::{FaultConfig, RunnerConfig, WireTiming, runner};
 
@@ -211,4 +211,30 @@ fn tokio_runner_over_memory_pipe() {
     assert!(snapshot.counters.failed() <= 2, "{:?}", snapshot.counters);
     assert!(snapshot.rtt.p50_us >= 5_000, "{:?}", snapshot.rtt);
     assert_eq!(v.plant_command().vertical, 40.0);
+}
+
+/// A pty whose other end closed reads and writes as "port gone" (not as a timeout, not
+/// as a frame error), the way an unplugged USB adapter does.
+#[test]
+fn vanished_pty_reads_as_port_gone() {
+    let (master, pair_slave, path) = SerialTransport::pty_pair().unwrap();
+    // The station opens the slave by its path, as it opens a real port.
+    let mut port = SerialTransport::open(&path, rov_driver::PRO4_BAUD).unwrap();
+    drop(pair_slave);
+    let mut buf = [0u8; 64];
+    assert_eq!(port.recv(&mut buf, Duration::from_millis(20)).unwrap(), 0);
+    let t0 = Instant::now();
+    drop(master);
+    let err = port
+        .recv(&mut buf, Duration::from_millis(500))
+        .expect_err("read after the master closed");
+    let elapsed = t0.elapsed();
+    println!("read after close: {err} after {elapsed:?}");
+    assert!(err.port_gone().is_some(), "{err:?}");
+    assert!(elapsed < Duration::from_millis(100), "{elapsed:?}");
+    let err = port.send(&[0xFA, 0xAF]).expect_err("write after close");
+    println!("write after close: {err}");
+    assert!(err.port_gone().is_some(), "{err:?}");
+    // The device node is gone with the master.
+    assert!(SerialTransport::open(&path, rov_driver::PRO4_BAUD).is_err());
 }

@@ -282,6 +282,19 @@ pub(crate) fn link_panel(app: &StationApp, ui: &mut Ui) {
             ui.label("Last good frame");
             ui.label(RichText::new(opt(l.last_good_age_s, 2, "s ago")).monospace());
             ui.end_row();
+            if let Some(p) = &l.port {
+                ui.label("Port");
+                ui.label(RichText::new(&p.path).monospace());
+                ui.end_row();
+                ui.label("");
+                let color = if p.reconnecting {
+                    theme::RED
+                } else {
+                    theme::DIM
+                };
+                ui.label(RichText::new(&p.state).monospace().color(color));
+                ui.end_row();
+            }
         });
 }
 
@@ -298,6 +311,11 @@ pub(crate) fn link_pill(ui: &mut Ui, v: &StationView) {
                     .color(color),
             );
         });
+        // A vanished serial port: the pilot sees that it is being looked for.
+        if let Some(p) = l.port.as_ref().filter(|p| p.reconnecting) {
+            ui.label(RichText::new(&p.state).monospace().small().color(color));
+            return;
+        }
         ui.label(
             RichText::new(format!(
                 "{} · {} · err {} · {}",
@@ -483,4 +501,44 @@ pub(crate) fn sticks_panel(app: &mut StationApp, ui: &mut Ui) {
                 }
             });
         });
+}
+
+#[cfg(test)]
+mod tests {
+    use egui_kittest::kittest::Queryable;
+    use rov_station::runtime::{LinkView, PortView, Quality};
+
+    use super::*;
+
+    /// The top bar's link pill while a vanished serial port is being looked for: the
+    /// re-connection state replaces the link statistics.
+    #[test]
+    fn link_pill_shows_the_reconnection() {
+        let view = StationView {
+            link: LinkView {
+                health: "lost".into(),
+                quality: Quality::Red,
+                port: Some(PortView {
+                    path: "/dev/ttyUSB0".into(),
+                    by_id: None,
+                    state: "reconnecting (attempt 3, next in 1.0 s)".into(),
+                    reconnecting: true,
+                    attempt: 3,
+                    next_attempt_in_s: Some(1.0),
+                    lost_for_s: Some(0.8),
+                    reason: Some("port gone (hang-up): Broken pipe".into()),
+                    losses: 1,
+                }),
+                ..LinkView::default()
+            },
+            ..StationView::default()
+        };
+        let mut harness = egui_kittest::Harness::builder()
+            .with_size(vec2(300.0, 60.0))
+            .build_ui(|ui| link_pill(ui, &view));
+        harness.run();
+        // Found by its text (panics if absent).
+        let _ = harness.get_by_label("reconnecting (attempt 3, next in 1.0 s)");
+        harness.snapshot("link_reconnecting");
+    }
 }

@@ -9,7 +9,8 @@
 //!   timeout), feeds the link, runs the tick, applies pilot commands, and publishes a
 //!   [`StationView`] and one history sample per tick.
 //! * `station-rx` / `station-tx`: move bytes between the transport and the control
-//!   thread (blocking I/O never runs on the control thread).
+//!   thread (blocking I/O never runs on the control thread). On a serial port they
+//!   also re-open a port that vanished (an unplugged USB adapter), see [`reconnect`].
 //! * `station-watchdog`: if no control tick completes within three periods it sends a
 //!   neutral control frame through the tx thread every period until ticks resume, and the
 //!   runtime raises [`AlarmKind::ControlStall`] (style G2). The frame zeroes thrust and
@@ -51,6 +52,7 @@ pub mod gamepad;
 pub mod history;
 mod live;
 pub mod predict;
+pub mod reconnect;
 pub mod recorder;
 pub mod replay;
 pub mod shaping;
@@ -63,6 +65,7 @@ mod tests;
 
 pub use alarms::{AlarmConfig, AlarmKind, AlarmState};
 pub use history::{Channel, History, HistorySample, decimate_min_max};
+pub use reconnect::{PortLister, PortView, ReconnectSettings};
 pub use replay::VirtualReplay;
 pub use shaping::{AxisShaping, GAIN_STEPS_PCT, Gain, StickShaping};
 pub use sim::VirtualStation;
@@ -78,7 +81,8 @@ pub enum Connection {
     /// The simulated Pro 4, in-process.
     #[default]
     Sim,
-    /// A real Pro 4 on a serial port (115200 8N1).
+    /// A real Pro 4 on a serial port (115200 8N1). A port that vanishes is looked for
+    /// again (see [`reconnect`] and [`RuntimeConfig::reconnect`]).
     Serial(String),
 }
 
@@ -110,6 +114,8 @@ pub struct RuntimeConfig {
     /// virtual-time runs, which have no real-time loop to protect
     /// ([`VirtualStation`] switches it on).
     pub record_blocking: bool,
+    /// Re-connection of a serial port that vanished (backoff, by-id names, scanning).
+    pub reconnect: ReconnectSettings,
 }
 
 impl Default for RuntimeConfig {
@@ -126,6 +132,7 @@ impl Default for RuntimeConfig {
             sim_seed: 1,
             keyboard_timeout_us: 300_000,
             record_blocking: false,
+            reconnect: ReconnectSettings::default(),
         }
     }
 }

@@ -1,5 +1,6 @@
-//! Byte transports: the real serial port, pseudo-terminal pairs and an in-memory pipe,
-//! behind one blocking interface with short timeouts.
+//! Byte transports: the real serial port and pseudo-terminal pairs (feature `serial`)
+//! and an in-memory pipe, behind one blocking interface with short timeouts; probing a
+//! transport for the vehicle; what a vanished port looks like ([`PortGone`]).
 //!
 //! The [`Link`](crate::Link) itself does no I/O; the runners
 //! ([`run_blocking`](crate::run_blocking) and the tokio [`runner`](crate::runner)) move
@@ -9,10 +10,16 @@ use std::time::Duration;
 
 use crate::error::TransportError;
 
+pub mod gone;
 pub mod memory;
+pub mod probe;
+#[cfg(feature = "serial")]
 pub mod serial;
 
+pub use gone::{PortGone, classify_io_error};
 pub use memory::{MemoryTransport, memory_pair};
+pub use probe::{ProbeReply, probe, probe_with};
+#[cfg(feature = "serial")]
 pub use serial::{SerialTransport, available_port_names};
 
 /// The receiving half of a transport.

@@ -3,11 +3,14 @@
 //! (protocol.md §7).
 
 use std::io::{self, Write};
-use std::time::{Duration, Instant};
+use std::path::{Path, PathBuf};
+use std::time::Duration;
 
-use firmware_proto::{Deframer, DeviceType, Event, NodeId, Ping};
+use firmware_proto::NodeId;
 use serialport::{DataBits, FlowControl, Parity, SerialPort, StopBits};
 
+use super::PortGone;
+use super::probe::{ProbeReply, probe};
 use super::{ByteSink, ByteSource, SplitHalves, Transport};
 use crate::error::TransportError;
 
@@ -30,10 +33,7 @@ impl std::fmt::Debug for SerialTransport {
 }
 
 fn io_err(port: &str, source: io::Error) -> TransportError {
-    TransportError::Io {
-        port: port.to_string(),
-        source,
-    }
+    TransportError::from_io(port, source)
 }
 
 fn serial_err(port: &str, source: serialport::Error) -> TransportError {
@@ -116,6 +116,13 @@ fn recv_port(
         *current = timeout;
     }
     match port.read(buf) {
+        // serialport reads only after poll reported the port readable (a timeout is an
+        // error), so zero bytes into a non-empty buffer is end of file: a hung-up tty.
+        Ok(0) if !buf.is_empty() => Err(TransportError::Gone {
+            port: name.to_string(),
+            cause: PortGone::Eof,
+            detail: "read returned end of file".into(),
+        }),
         Ok(n) => Ok(n),
         Err(e)
             if matches!(
@@ -210,60 +217,30 @@ pub fn available_port_names() -> Result<Vec<String>, TransportError> {
         .map_err(|e| serial_err("enumeration", e))
 }
 
-/// A well-formed response to the autodetect ping.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct ProbeReply {
-    /// The port it came from.
-    pub port: String,
-    /// Responder's node ID.
-    pub node: NodeId,
-    /// Response FLAGS.
-    pub flags: u8,
-    /// Responder's device type.
-    pub device_type: Option<DeviceType>,
-    /// Ping to reply.
-    pub rtt: Duration,
-    /// The reply frame.
-    pub frame: Vec<u8>,
-}
+/// Where udev keeps the stable names of USB serial ports on Linux
+/// (`usb-<vendor>_<product>_<serial>-if<NN>-port<N>`, symlinks to `../../ttyUSBn`).
+pub const BY_ID_DIR: &str = "/dev/serial/by-id";
 
-/// Sends the ping (`FA AF node 01 00 00 HC 00`) and waits up to `timeout` for any
-/// well-formed response (protocol.md §7 step 1: any valid response means a vehicle).
-///
-/// # Errors
-/// [`TransportError`] if the transport fails.
-pub fn probe(
-    transport: &mut dyn Transport,
-    node: NodeId,
-    timeout: Duration,
-) -> Result<Option<ProbeReply>, TransportError> {
-    let mut ping = [0u8; 8];
-    let n = Ping::encode_request(node, &mut ping).unwrap_or(0);
-    let start = Instant::now();
-    transport.send(ping.get(..n).unwrap_or_default())?;
-    let mut rx = Deframer::host();
-    let mut buf = [0u8; 512];
-    loop {
-        let elapsed = start.elapsed();
-        let Some(left) = timeout.checked_sub(elapsed) else {
-            return Ok(None);
-        };
-        let got = transport.recv(&mut buf, left.min(Duration::from_millis(20)))?;
-        let mut input = buf.get(..got).unwrap_or_default();
-        let now_us = u64::try_from(start.elapsed().as_micros()).unwrap_or(u64::MAX);
-        while let Some(event) = rx.feed(&mut input, now_us) {
-            if let Event::Frame { frame, .. } = event {
-                return Ok(Some(ProbeReply {
-                    port: transport.name(),
-                    node: frame.node(),
-                    flags: frame.flags(),
-                    device_type: frame.device_type(),
-                    rtt: start.elapsed(),
-                    frame: frame.as_bytes().to_vec(),
-                }));
-            }
-        }
+/// The stable by-id name of the port at `path`: the entry of `dir` (normally
+/// [`BY_ID_DIR`]) that resolves to the same device as `path`, symlinks followed on both
+/// sides; `path` itself if it already is an entry of `dir`. `None` when there is none
+/// (no udev, not a USB adapter, a pty) or `path` does not resolve.
+#[must_use]
+pub fn by_id_name(path: &str, dir: &Path) -> Option<String> {
+    let p = Path::new(path);
+    if p.parent() == Some(dir) {
+        return Some(path.to_string());
     }
+    let device = std::fs::canonicalize(p).ok()?;
+    let mut names: Vec<PathBuf> = std::fs::read_dir(dir)
+        .ok()?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .collect();
+    names.sort();
+    names
+        .into_iter()
+        .find(|n| std::fs::canonicalize(n).is_ok_and(|d| d == device))
+        .map(|n| n.to_string_lossy().into_owned())
 }
 
 /// What autodetect found on each candidate port.
@@ -304,4 +281,38 @@ pub fn autodetect(candidates: &[String], node: NodeId, timeout: Duration) -> Aut
         }
     }
     AutodetectReport { found: None, tried }
+}
+
+#[cfg(all(test, unix))]
+mod tests {
+    use super::*;
+
+    /// A udev-like tree in a temporary directory: `dev/ttyUSB0`, `dev/ttyUSB1` (plain
+    /// files standing in for device nodes) and `by-id/usb-A` → `../dev/ttyUSB1`.
+    #[test]
+    fn by_id_name_follows_links_on_both_sides() {
+        let root = std::env::temp_dir().join(format!("rov_driver_by_id_{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&root);
+        let dev = root.join("dev");
+        let by_id = root.join("by-id");
+        std::fs::create_dir_all(&dev).unwrap();
+        std::fs::create_dir_all(&by_id).unwrap();
+        std::fs::write(dev.join("ttyUSB0"), b"").unwrap();
+        std::fs::write(dev.join("ttyUSB1"), b"").unwrap();
+        std::os::unix::fs::symlink("../dev/ttyUSB1", by_id.join("usb-A")).unwrap();
+        // An alias of ttyUSB1 (like socat's link=) resolves too.
+        std::os::unix::fs::symlink(dev.join("ttyUSB1"), root.join("alias")).unwrap();
+        let s = |p: &Path| p.to_str().unwrap().to_string();
+        let want = Some(s(&by_id.join("usb-A")));
+        assert_eq!(by_id_name(&s(&dev.join("ttyUSB1")), &by_id), want);
+        assert_eq!(by_id_name(&s(&root.join("alias")), &by_id), want);
+        assert_eq!(by_id_name(&s(&by_id.join("usb-A")), &by_id), want);
+        assert_eq!(by_id_name(&s(&dev.join("ttyUSB0")), &by_id), None);
+        assert_eq!(by_id_name(&s(&dev.join("missing")), &by_id), None);
+        assert_eq!(
+            by_id_name(&s(&dev.join("ttyUSB1")), &root.join("no-such-dir")),
+            None
+        );
+        std::fs::remove_dir_all(&root).unwrap();
+    }
 }

@@ -56,6 +56,8 @@ pub(crate) struct Engine {
     recorder: Option<Recorder>,
     /// Live sim mode: the vehicle thread's latest truth, for `/truth/state`.
     truth_tap: Option<rov_vehicle::runner::TruthTap>,
+    /// Serial mode: the port's state and re-connection (see `reconnect`).
+    pub(crate) port: Option<crate::runtime::reconnect::PortMonitor>,
     shared: Arc<Shared>,
     pending: Vec<HistorySample>,
     ever_connected: bool,
@@ -141,6 +143,7 @@ impl Engine {
             focus_pct: 0,
             recorder: None,
             truth_tap: None,
+            port: None,
             shared,
             pending: Vec::new(),
             ever_connected: false,
@@ -192,7 +195,8 @@ impl Engine {
         }
     }
 
-    fn event(&mut self, now_us: u64, kind: &str, severity: Severity, text: String) {
+    /// An event: the view's event list and the session's `/events`.
+    pub(crate) fn event(&mut self, now_us: u64, kind: &str, severity: Severity, text: String) {
         let r = EventRecord {
             kind: kind.to_string(),
             severity,

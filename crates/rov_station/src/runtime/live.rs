@@ -28,9 +28,11 @@ const TX_CAPACITY: usize = 64;
 /// The control thread wakes this early for a tick and spins the rest, µs.
 const SPIN_US: u64 = 1_000;
 
-enum Rx {
+pub(crate) enum Rx {
     Bytes(Vec<u8>, u64),
     Failed(String),
+    /// Serial port lost, re-connection progress, reconnected (see `reconnect`).
+    Port(crate::runtime::reconnect::PortEvent),
 }
 
 pub(crate) fn start(cfg: RuntimeConfig, models: ModelSet) -> Result<StationHandle, RuntimeError> {
@@ -73,6 +75,15 @@ pub(crate) fn start(cfg: RuntimeConfig, models: ModelSet) -> Result<StationHandl
 
     let (rx_tx, rx_rx) = sync_channel::<Rx>(RX_CAPACITY);
     let (tx_tx, tx_rx) = sync_channel::<Vec<u8>>(TX_CAPACITY);
+    // A serial port that vanishes is looked for again (see `reconnect`).
+    let (source_half, sink_half) = crate::runtime::reconnect::wrap(
+        &cfg,
+        node,
+        (source_half, sink_half),
+        &rx_tx,
+        &shared,
+        &mut engine,
+    )?;
     let mut threads = Vec::new();
     {
         let shared = Arc::clone(&shared);
@@ -252,6 +263,7 @@ fn control_loop(
             match rx.recv_timeout(Duration::from_micros(due - now)) {
                 Ok(Rx::Bytes(b, t)) => link.handle_input(&b, t),
                 Ok(Rx::Failed(e)) => transport_error = Some(e),
+                Ok(Rx::Port(ev)) => engine.on_port_event(ev, &mut link, clock.now_us()),
                 Err(RecvTimeoutError::Timeout) => {}
                 Err(RecvTimeoutError::Disconnected) => {
                     transport_error.get_or_insert_with(|| "transport closed".into());
@@ -262,6 +274,7 @@ fn control_loop(
             match rx.try_recv() {
                 Ok(Rx::Bytes(b, t)) => link.handle_input(&b, t),
                 Ok(Rx::Failed(e)) => transport_error = Some(e),
+                Ok(Rx::Port(ev)) => engine.on_port_event(ev, &mut link, clock.now_us()),
                 Err(TryRecvError::Empty | TryRecvError::Disconnected) => break,
             }
         }
@@ -306,6 +319,7 @@ fn control_loop(
         }
         if now >= next_tick {
             engine.tick(&mut link, now);
+            engine.publish_port(now);
             pump(&mut engine, &mut link, tx, now);
             engine.record_tapped_truth(now);
             let stats = {

@@ -77,6 +77,8 @@ pub struct LinkView {
     pub errors: u64,
     /// Overall colour.
     pub quality: Quality,
+    /// The serial port and its re-connection state (`None` for the simulator).
+    pub port: Option<crate::runtime::reconnect::PortView>,
 }
 
 /// Vehicle health.
