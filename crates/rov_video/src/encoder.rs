@@ -263,8 +263,17 @@ impl Encoder {
                         && let Ok(map) = buf.map_readable()
                     {
                         let key_frame = !buf.flags().contains(gst::BufferFlags::DELTA_UNIT);
+                        // x264enc shifts its output times (room for a DTS before the PTS);
+                        // the running time undoes the shift: it is the input's time.
+                        let running = buf.pts().and_then(|p| {
+                            sample
+                                .segment()
+                                .and_then(|seg| seg.downcast_ref::<gst::ClockTime>())
+                                .and_then(|seg| seg.to_running_time(p))
+                                .or(Some(p))
+                        });
                         let pts_ns = out_origin.load(Ordering::Acquire)
-                            + buf.pts().map_or(0, |p| p.nseconds());
+                            + running.map_or(0, |p| p.nseconds());
                         out_counters.access_units.fetch_add(1, Ordering::Relaxed);
                         out_counters
                             .bytes

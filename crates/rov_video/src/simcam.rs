@@ -29,7 +29,7 @@
 //!
 //! # Why these defaults
 //! The built-in 20-s `topside record --sim` dive descends from the surface to 3 m and turns
-//! from 000° to 090° with the lights off. With the seabed at 6 m and 6 m of visibility,
+//! from 000° to 090° with the lights off. With the seabed at 6 m and 8 m of visibility,
 //! at the start the upper half is the bright rippled surface close above and the seabed is
 //! lost in the haze; at 3 m the surface has dimmed and receded and the grid and markers
 //! of the seabed fill the lower half, and the turn sweeps them (and the sun's side of the
@@ -89,9 +89,9 @@ impl Default for SimScene {
             grid_spacing_m: 2.0,
             landmark_cell_m: 3.0,
             landmark_density: 0.45,
-            visibility_m: 6.0,
+            visibility_m: 8.0,
             lights_visibility_gain_m: 9.0,
-            light_falloff_m: 8.0,
+            light_falloff_m: 10.0,
             sun_azimuth_deg: 135.0,
             sun_elevation_deg: 50.0,
         }
@@ -510,7 +510,7 @@ impl SimCamera {
         let fog_scale = FOG_TABLE as f32 / (FOG_RANGE_VIS * vis);
         let lights_f = lights as f32;
         let water_top = [0.16 * daylight, 0.42 * daylight, 0.50 * daylight];
-        let water_bottom = [0.02 * daylight, 0.10 * daylight, 0.14 * daylight];
+        let water_bottom = [0.03 * daylight, 0.13 * daylight, 0.17 * daylight];
         let sand = [0.62f32, 0.56, 0.40];
         let seabed = s.seabed_depth_m as f32;
         let cam_f = [cam.x as f32, cam.y as f32, cam.z as f32];
@@ -611,7 +611,7 @@ impl SimCamera {
                             0.0
                         };
                         let lamp = lights_f * 1.6 * spot / (1.0 + dist * dist * 0.04);
-                        let light = 0.55 * seabed_daylight + lamp;
+                        let light = 1.1 * seabed_daylight + lamp;
                         for k in 0..3 {
                             let c = col.get(k).copied().unwrap_or(0.0) * light;
                             if let (Some(o), Some(wc)) = (out.get_mut(k), water.get(k)) {

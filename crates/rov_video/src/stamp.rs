@@ -99,7 +99,7 @@ pub fn read_time(frame: &VideoFrame) -> Option<u64> {
     let bit = |i: u32| -> Option<bool> {
         Some(luma_mean(frame, i * b + m, m, b - 2 * m, h - 2 * m)? > f64::from(HIGH + LOW) / 2.0)
     };
-    if !(bit(0)? && !bit(1)?) {
+    if !bit(0)? || bit(1)? {
         return None;
     }
     let mut t = 0u64;

@@ -85,8 +85,7 @@ pub fn encode(
     }
     let stats = enc.finish(Duration::from_secs(60)).unwrap();
     assert_eq!(stats.frames_dropped, 0);
-    let v = out.lock().unwrap().clone();
-    v
+    out.lock().unwrap().clone()
 }
 
 /// `ffprobe -show_format -show_streams` (and packets when asked) as JSON.
