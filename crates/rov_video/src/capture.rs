@@ -30,6 +30,7 @@
 //! aspect ratio with black borders, so a size change mid-stream is invisible downstream;
 //! [`OutputSize::Native`] delivers the source's size, and each frame carries its own.
 
+use std::collections::VecDeque;
 use std::path::Path;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::mpsc;
@@ -51,6 +52,10 @@ use crate::stamp;
 use crate::stats::{CaptureState, CaptureStats, Rolling, snapshot};
 
 const SINK_NAME: &str = "rov_video_sink";
+/// The first element of the station's path (after the source's own elements).
+const CONVERT_NAME: &str = "rov_video_convert";
+/// Frames whose entry time into the station's path is remembered.
+const ARRIVALS: usize = 64;
 const POLL: Duration = Duration::from_millis(25);
 /// A buffer that claims to have spent longer than this in the pipeline has a bogus
 /// timestamp: its latency is taken as 0.
@@ -170,6 +175,8 @@ struct Shared {
     sinks: Vec<Arc<dyn FrameSink>>,
     seq: AtomicU64,
     rolling: Mutex<Rolling>,
+    /// When each raw frame (by its timestamp) entered the station's path.
+    arrivals: Mutex<VecDeque<(u64, Instant)>>,
     state: Mutex<CaptureState>,
     reconnects: AtomicU64,
     stop: AtomicBool,
@@ -212,7 +219,7 @@ fn appsink_tail(output: OutputSize) -> String {
         OutputSize::Native => "video/x-raw,format=RGBA".to_owned(),
     };
     format!(
-        "videoconvert ! {caps} ! appsink name={SINK_NAME} sync=false max-buffers=1 drop=true enable-last-sample=false"
+        "videoconvert name={CONVERT_NAME} ! {caps} ! appsink name={SINK_NAME} sync=false max-buffers=1 drop=true enable-last-sample=false"
     )
 }
 
@@ -268,6 +275,7 @@ impl Capture {
             sinks,
             seq: AtomicU64::new(0),
             rolling: Mutex::new(Rolling::new()),
+            arrivals: Mutex::new(VecDeque::with_capacity(ARRIVALS)),
             state: Mutex::new(CaptureState::Starting),
             reconnects: AtomicU64::new(0),
             stop: AtomicBool::new(false),
@@ -362,9 +370,10 @@ impl Capture {
 
     fn shutdown(&mut self) {
         self.shared.stop.store(true, Ordering::Release);
-        if self.done.recv_timeout(Duration::from_secs(2)).is_ok()
-            && let Some(t) = self.thread.take()
-        {
+        let Some(t) = self.thread.take() else {
+            return;
+        };
+        if self.done.recv_timeout(Duration::from_secs(2)).is_ok() {
             let _ = t.join();
         }
         // Otherwise the thread is left to finish on its own: never block the caller.
@@ -373,9 +382,7 @@ impl Capture {
 
 impl Drop for Capture {
     fn drop(&mut self) {
-        if self.thread.is_some() {
-            self.shutdown();
-        }
+        self.shutdown();
     }
 }
 
@@ -443,6 +450,23 @@ fn run_once(shared: &Arc<Shared>, spec: &SourceSpec, description: &str) -> Outco
         Ok(s) => s,
         Err(e) => return Outcome::Fatal(e.to_string()),
     };
+    // Note when each raw frame enters the station's path (for the added latency).
+    if let Some(pad) = pipeline
+        .by_name(CONVERT_NAME)
+        .and_then(|c| c.static_pad("sink"))
+    {
+        let probe = Arc::clone(shared);
+        pad.add_probe(gst::PadProbeType::BUFFER, move |_, info| {
+            if let Some(pts) = info.buffer().and_then(|b| b.pts()) {
+                let mut a = lock(&probe.arrivals);
+                if a.len() == ARRIVALS {
+                    a.pop_front();
+                }
+                a.push_back((pts.nseconds(), Instant::now()));
+            }
+            gst::PadProbeReturn::Ok
+        });
+    }
     lock(&shared.rolling).new_stream();
     let frames_before = lock(&shared.rolling).frames;
     let cb = Arc::clone(shared);
@@ -568,6 +592,13 @@ fn on_sample(
     };
     let (frame, latency_ns, pts_ns, period_ns) = frame;
     let frame = Arc::new(frame);
+    let entered = pts_ns.and_then(|p| {
+        lock(&shared.arrivals)
+            .iter()
+            .rev()
+            .find(|(t, _)| *t == p)
+            .map(|(_, at)| *at)
+    });
     lock(&shared.rolling).record(
         delivered,
         frame.capture_ns,
@@ -577,6 +608,9 @@ fn on_sample(
         period_ns,
     );
     shared.slot.store(Arc::clone(&frame));
+    if let Some(at) = entered {
+        lock(&shared.rolling).record_path(at.elapsed().as_secs_f64() * 1e3);
+    }
     for s in &shared.sinks {
         s.push(Arc::clone(&frame));
     }

@@ -33,17 +33,19 @@
 //! 1. Parse `--video` / the config's `video.source` with [`SourceSpec::parse`]; the
 //!    default is `sim` on the simulator, the first of [`list_capture_devices`] with
 //!    `--port`, else `none`.
-//! 2. Real source: `Capture::start(&spec, CaptureConfig { clock: TimeSource::new(move ||
-//!    session_clock_ns()), ..Default::default() }, vec![encoder_sink])`. An error from
-//!    `start` (bad pipeline, missing plugin) is shown in the Connection tab and the
-//!    station opens without video; everything else is a [`CaptureState`].
-//! 3. Simulator: `SimCameraRunner::start(SimCamera::new(scene, CameraModel::default(),
-//!    false)?, 25, clock, pose_fn, sinks)`, where `pose_fn` reads the latest truth
-//!    (`CameraPose::from_degrees(north, east, depth, roll, pitch, heading, tilt)`) and the
-//!    lights % from the station. Under `--fast` (`VirtualStation`) call
-//!    [`SimCamera::render`] every 40 ms of virtual time instead and
-//!    [`Encoder::push_blocking`] the frame (nothing may be dropped on virtual time).
-//! 4. Publish `capture.stats()` (or the runner's) in the `StationView` (fps, latency p99,
+//! 2. Start it with [`VideoFeed::start`]`(&spec, CaptureConfig { clock:
+//!    TimeSource::new(move || session_clock_ns()), ..Default::default() }, sim,
+//!    vec![encoder_sink])`: a GStreamer [`Capture`] for real sources, a
+//!    [`SimCameraRunner`] for `sim` (25 fps of wall time), nothing for `none`. `sim` is a
+//!    [`SimFeed`]: `SimCamera::new(scene, CameraModel::default(), false)?` and a closure
+//!    that reads the latest truth (`CameraPose::from_degrees(north, east, depth, roll,
+//!    pitch, heading, tilt)`) and the lights % from the station. An error from `start`
+//!    (bad pipeline, missing plugin) is shown in the Connection tab and the station opens
+//!    without video; everything after that is a [`CaptureState`].
+//! 3. Under `--fast` (`VirtualStation`) there is no wall time: call [`SimCamera::render`]
+//!    every 40 ms of virtual time and [`Encoder::push_blocking`] the frame (nothing may be
+//!    dropped on virtual time).
+//! 4. Publish `feed.stats()` in the `StationView` (fps, latency p99,
 //!    frame age, state label) next to the link figures.
 //!
 //! **GUI Fly tab**: keep the `Arc<FrameSlot>`; each frame call
@@ -51,15 +53,17 @@
 //! (`egui::ColorImage::from_rgba_unmultiplied([w, h], &frame.rgba)`); draw the HUD over it.
 //! When `!state.has_video()` draw `state.label()` and the frame age.
 //!
-//! **Recorder**: `Encoder::start(EncoderConfig::default(), move |au| recorder_tx.send(au))`
-//! and give the encoder to the capture/runner as a sink (it implements [`FrameSink`]).
+//! **Recorder**: `Encoder::start(EncoderConfig::default(), move |au| ...)` where the
+//! callback hands the unit to the recorder's queue (`try_send` live, counting a drop; the
+//! callback runs on GStreamer's thread and must not wait), and give the encoder to the
+//! feed as a sink (it implements [`FrameSink`]).
 //! Each [`AccessUnit`] becomes one `/camera/video` message (`foxglove.CompressedVideo`:
 //! `timestamp` = `pts_ns`, `frame_id` = "camera", `format` = "h264", `data` = the bytes)
 //! at log time `pts_ns`. On stop, [`Encoder::finish`] flushes the last units.
 //!
 //! **Replay / model lab**: build an [`AuStore`] over the session's `/camera/video`
-//! messages (index of time and key flag, units loaded lazily; a recovered file simply has
-//! fewer) and ask [`FrameSeeker::frame_at`] for the play-head time; put the frame in a
+//! messages (index of time and key flag, read from the bytes by
+//! [`AccessUnit::from_annex_b`]; units loaded lazily; a recovered file simply has fewer) and ask [`FrameSeeker::frame_at`] for the play-head time; put the frame in a
 //! [`FrameSlot`] for the same Fly view.
 //!
 //! **Export** (`topside export FILE.mcap --video OUT.mp4 [--overlay]`): iterate the
@@ -82,6 +86,7 @@ pub mod devices;
 pub mod encoder;
 pub mod error;
 pub mod export;
+pub mod feed;
 pub mod frame;
 pub mod gst_util;
 pub mod simcam;
@@ -98,6 +103,7 @@ pub use devices::{CaptureDevice, list_capture_devices};
 pub use encoder::{Encoder, EncoderConfig, EncoderStats, SpeedPreset};
 pub use error::VideoError;
 pub use export::{ExportOptions, ExportSummary, export_mp4};
+pub use feed::{SimFeed, VideoFeed};
 pub use frame::{FrameSink, FrameSlot, TimeSource, VideoFrame};
 pub use simcam::{CameraModel, CameraPose, SimCamera, SimScene};
 pub use simrun::SimCameraRunner;

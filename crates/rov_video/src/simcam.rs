@@ -508,6 +508,8 @@ impl SimCamera {
         let daylight = (-depth / s.light_falloff_m).exp() as f32;
         let vis = (s.visibility_m + lights * s.lights_visibility_gain_m) as f32;
         let fog_scale = FOG_TABLE as f32 / (FOG_RANGE_VIS * vis);
+        // Beyond this distance the fog hides everything (transmission < 0.4 %).
+        let max_dist = 5.5 * vis;
         let lights_f = lights as f32;
         let water_top = [0.16 * daylight, 0.42 * daylight, 0.50 * daylight];
         let water_bottom = [0.03 * daylight, 0.13 * daylight, 0.17 * daylight];
@@ -516,8 +518,7 @@ impl SimCamera {
         let cam_f = [cam.x as f32, cam.y as f32, cam.z as f32];
         let grid = s.grid_spacing_m as f32;
         let inv_grid = 1.0 / grid;
-        let cell = s.landmark_cell_m as f32;
-        let inv_cell = 1.0 / cell;
+        let inv_cell = (1.0 / s.landmark_cell_m) as f32;
         let pixel_angle = (1.0 / f) as f32;
         let sun = [
             self.sun_dir_water.x as f32,
@@ -528,24 +529,25 @@ impl SimCamera {
         let nose_f = [nose.x as f32, nose.y as f32, nose.z as f32];
         // Daylight reaching the seabed (it travels down through the water).
         let seabed_daylight = (-s.seabed_depth_m / s.light_falloff_m).exp() as f32;
+        let sky = daylight.max(0.15);
+        let seed = s.seed;
 
-        // The landmark lookup is cached per cell along a row (neighbouring pixels mostly
-        // share a cell).
+        // The landmark lookup is cached per cell (neighbouring pixels mostly share one).
         let mut cached_cell: Option<(i64, i64, Option<Landmark>)> = None;
 
         let fog = |dist: f32| -> f32 {
             let i = (dist * fog_scale) as usize;
             self.fog.get(i).copied().unwrap_or(0.0)
         };
+        let step = [c1.x as f32, c1.y as f32, c1.z as f32];
 
         for (v, row) in frame.rgba.chunks_exact_mut(w * 4).enumerate() {
             let dv = v as f64 - cy;
             let base = c0 + c2 * dv - c1 * cx;
             let mut d = [base.x as f32, base.y as f32, base.z as f32];
-            let step = [c1.x as f32, c1.y as f32, c1.z as f32];
             for px in row.chunks_exact_mut(4) {
-                let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
-                let inv_len = 1.0 / len;
+                let len2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+                let inv_len = 1.0 / len2.sqrt();
                 let dz = d[2] * inv_len; // down component of the unit ray
                 // Background water: lighter looking up, darker looking down.
                 let up = (0.5 - 0.5 * dz).clamp(0.0, 1.0);
@@ -558,28 +560,27 @@ impl SimCamera {
                 if dz > 1e-4 {
                     // Seabed.
                     let t = (seabed - cam_f[2]) / d[2];
-                    let dist = t * len;
-                    let trans = fog(dist);
-                    if trans > 0.004 {
+                    let dist = t * len2 * inv_len;
+                    if dist < max_dist {
+                        let trans = fog(dist);
                         let pn = cam_f[0] + t * d[0];
                         let pe = cam_f[1] + t * d[1];
                         // Tile texture (0.5 m tiles).
-                        let tile =
-                            hash2((pn * 2.0).floor() as i64, (pe * 2.0).floor() as i64, s.seed);
-                        let tex = 0.85 + 0.3 * ((tile & 0xFF) as f32 / 255.0);
+                        let tile = hash2(floor_i64(pn * 2.0), floor_i64(pe * 2.0), seed);
+                        let tex = 0.85 + 0.3 * ((tile & 0xFF) as f32 * (1.0 / 255.0));
                         let mut col = [sand[0] * tex, sand[1] * tex, sand[2] * tex];
                         // Grid lines, widened with distance so they never alias to nothing.
                         let half_w = (0.03f32).max(dist * pixel_angle * 0.75);
                         let gn = pn * inv_grid;
                         let ge = pe * inv_grid;
-                        let on = (gn - gn.round()).abs() * grid < half_w;
-                        let oe = (ge - ge.round()).abs() * grid < half_w;
+                        let on = (gn - round_f32(gn)).abs() * grid < half_w;
+                        let oe = (ge - round_f32(ge)).abs() * grid < half_w;
                         if on || oe {
                             col = [0.10, 0.10, 0.12];
                         }
                         // Landmark of this cell.
-                        let ci = (pn * inv_cell).floor() as i64;
-                        let cj = (pe * inv_cell).floor() as i64;
+                        let ci = floor_i64(pn * inv_cell);
+                        let cj = floor_i64(pe * inv_cell);
                         let lm = match cached_cell {
                             Some((a, b, l)) if a == ci && b == cj => l,
                             _ => {
@@ -606,35 +607,36 @@ impl SimCamera {
                         let along =
                             (d[0] * nose_f[0] + d[1] * nose_f[1] + d[2] * nose_f[2]) * inv_len;
                         let spot = if along > 0.0 {
-                            along * along * along * along
+                            let a2 = along * along;
+                            a2 * a2
                         } else {
                             0.0
                         };
                         let lamp = lights_f * 1.6 * spot / (1.0 + dist * dist * 0.04);
-                        let light = 1.1 * seabed_daylight + lamp;
-                        for k in 0..3 {
-                            let c = col.get(k).copied().unwrap_or(0.0) * light;
-                            if let (Some(o), Some(wc)) = (out.get_mut(k), water.get(k)) {
-                                *o = c * trans + wc * (1.0 - trans);
-                            }
-                        }
+                        let light = (1.1 * seabed_daylight + lamp) * trans;
+                        let keep = 1.0 - trans;
+                        out = [
+                            col[0] * light + water[0] * keep,
+                            col[1] * light + water[1] * keep,
+                            col[2] * light + water[2] * keep,
+                        ];
                     }
                 } else if dz < -1e-4 {
                     // Surface above.
                     let t = cam_f[2] / -d[2];
-                    let dist = t * len;
-                    let trans = fog(dist);
-                    if trans > 0.004 {
+                    let dist = t * len2 * inv_len;
+                    if dist < max_dist {
+                        let trans = fog(dist);
                         let pn = cam_f[0] + t * d[0];
                         let pe = cam_f[1] + t * d[1];
-                        // Two wave trains fixed in the world (from 060° and 150°).
-                        let ripple =
-                            1.0 + 0.18 * (pn * 2.6 + pe * 1.5).sin() * (pe * 3.1 - pn * 1.2).sin();
+                        // Two wave trains fixed in the world.
+                        let ripple = 1.0
+                            + 0.18 * fast_sin(pn * 2.6 + pe * 1.5) * fast_sin(pe * 3.1 - pn * 1.2);
                         let col = if -dz > cos_crit {
                             // Inside Snell's window: the sky, brightest towards the sun.
                             let c = (d[0] * sun[0] + d[1] * sun[1] + d[2] * sun[2]) * inv_len;
                             let glare = if c > 0.9 { (c - 0.9) * 10.0 } else { 0.0 };
-                            let b = (0.75 + 0.9 * glare * glare) * ripple * daylight.max(0.15);
+                            let b = (0.75 + 0.9 * glare * glare) * ripple * sky;
                             [0.70 * b, 0.88 * b, 0.95 * b]
                         } else {
                             // Total reflection of the water below, lit by the ripples.
@@ -645,12 +647,12 @@ impl SimCamera {
                                 water_top[2] * b * 1.05,
                             ]
                         };
-                        for k in 0..3 {
-                            let c = col.get(k).copied().unwrap_or(0.0);
-                            if let (Some(o), Some(wc)) = (out.get_mut(k), water.get(k)) {
-                                *o = c * trans + wc * (1.0 - trans);
-                            }
-                        }
+                        let keep = 1.0 - trans;
+                        out = [
+                            col[0] * trans + water[0] * keep,
+                            col[1] * trans + water[1] * keep,
+                            col[2] * trans + water[2] * keep,
+                        ];
                     }
                 }
                 px.copy_from_slice(&[to_u8(out[0]), to_u8(out[1]), to_u8(out[2]), 255]);
@@ -660,6 +662,25 @@ impl SimCamera {
             }
         }
     }
+}
+
+/// ⌊x⌋ without a libm call (x86-64 without SSE4.1 has no rounding instruction).
+fn floor_i64(x: f32) -> i64 {
+    let i = x as i64;
+    if (i as f32) > x { i - 1 } else { i }
+}
+
+/// x rounded to the nearest integer (ties away from zero do not matter here).
+fn round_f32(x: f32) -> f32 {
+    floor_i64(x + 0.5) as f32
+}
+
+/// sin x to about 0.1 % (a parabola with one correction step), for the ripples.
+fn fast_sin(x: f32) -> f32 {
+    use std::f32::consts::{PI, TAU};
+    let x = x - TAU * round_f32(x / TAU); // −π..π
+    let y = (4.0 / PI) * x - (4.0 / (PI * PI)) * x * x.abs();
+    0.225 * (y * y.abs() - y) + y
 }
 
 fn to_u8(x: f32) -> u8 {

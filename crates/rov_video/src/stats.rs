@@ -77,6 +77,11 @@ pub struct CaptureStats {
     pub latency_p50_ms: Option<f64>,
     /// 99th percentile latency of the last 256 frames, ms.
     pub latency_p99_ms: Option<f64>,
+    /// Median latency added by the station's path (the source's raw frame entering
+    /// conversion → the slot), last 256 frames, ms.
+    pub path_latency_p50_ms: Option<f64>,
+    /// 99th percentile of the same, ms.
+    pub path_latency_p99_ms: Option<f64>,
     /// Frames the source skipped (gaps in its timestamps longer than 1.5 frame periods).
     pub frames_missed: u64,
     /// Frames replaced in the latest-frame slot before the screen read them.
@@ -95,6 +100,7 @@ pub(crate) struct Rolling {
     pub frames: u64,
     deliveries: VecDeque<Instant>,
     latencies_ms: VecDeque<f64>,
+    path_ms: VecDeque<f64>,
     pub last_delivery: Option<Instant>,
     pub last_capture_ns: Option<u64>,
     pub frame_size_px: Option<(u32, u32)>,
@@ -109,6 +115,7 @@ impl Rolling {
             frames: 0,
             deliveries: VecDeque::with_capacity(128),
             latencies_ms: VecDeque::with_capacity(LATENCY_WINDOW),
+            path_ms: VecDeque::with_capacity(LATENCY_WINDOW),
             last_delivery: None,
             last_capture_ns: None,
             frame_size_px: None,
@@ -170,15 +177,29 @@ impl Rolling {
             .count() as f64
     }
 
+    /// Records the latency the station's path added to the last frame.
+    pub fn record_path(&mut self, ms: f64) {
+        if self.path_ms.len() == LATENCY_WINDOW {
+            self.path_ms.pop_front();
+        }
+        self.path_ms.push_back(ms);
+    }
+
     pub fn latency(&self) -> (Option<f64>, Option<f64>, Option<f64>) {
         let last = self.latencies_ms.back().copied();
-        if self.latencies_ms.is_empty() {
-            return (last, None, None);
-        }
-        let mut v: Vec<f64> = self.latencies_ms.iter().copied().collect();
-        v.sort_by(f64::total_cmp);
-        (last, percentile(&v, 0.5), percentile(&v, 0.99))
+        let (p50, p99) = quantiles(&self.latencies_ms);
+        (last, p50, p99)
     }
+
+    pub fn path_latency(&self) -> (Option<f64>, Option<f64>) {
+        quantiles(&self.path_ms)
+    }
+}
+
+fn quantiles(window: &VecDeque<f64>) -> (Option<f64>, Option<f64>) {
+    let mut v: Vec<f64> = window.iter().copied().collect();
+    v.sort_by(f64::total_cmp);
+    (percentile(&v, 0.5), percentile(&v, 0.99))
 }
 
 /// A [`CaptureStats`] from the rolling figures (`now_ns` on the caller's clock).
@@ -190,6 +211,7 @@ pub(crate) fn snapshot(
     reconnects: u32,
 ) -> CaptureStats {
     let (latency_last_ms, latency_p50_ms, latency_p99_ms) = r.latency();
+    let (path_latency_p50_ms, path_latency_p99_ms) = r.path_latency();
     CaptureStats {
         state,
         frames: r.frames,
@@ -202,6 +224,8 @@ pub(crate) fn snapshot(
         latency_last_ms,
         latency_p50_ms,
         latency_p99_ms,
+        path_latency_p50_ms,
+        path_latency_p99_ms,
         frames_missed: r.frames_missed,
         frames_superseded,
         reconnects,
