@@ -489,16 +489,17 @@ fn watch(
     let cfg = &shared.config;
     let ctx = &shared.context;
     let started = Instant::now();
-    match pipeline.set_state(gst::State::Playing) {
-        Err(_) => {
-            let reason = gst_util::bus_error_now(pipeline)
-                .unwrap_or_else(|| "the source refused to start".to_owned());
-            return lost_or_fatal(reason, false);
-        }
-        // A live source (camera, network, test) delivers frames as they come; a file is
-        // played at its own pace.
-        Ok(gst::StateChangeSuccess::NoPreroll) => sink.set_sync(false),
-        Ok(_) => sink.set_sync(true),
+    // PAUSED first: a live source (camera, network, test) answers "no preroll" and its
+    // frames are delivered as they come; a file prerolls and is played at its own pace
+    // (the sink synchronises to the clock).
+    let start = pipeline.set_state(gst::State::Paused).and_then(|paused| {
+        sink.set_sync(paused != gst::StateChangeSuccess::NoPreroll);
+        pipeline.set_state(gst::State::Playing)
+    });
+    if start.is_err() {
+        let reason = gst_util::bus_error_now(pipeline)
+            .unwrap_or_else(|| "the source refused to start".to_owned());
+        return lost_or_fatal(reason, false);
     }
     let Some(bus) = pipeline.bus() else {
         return Outcome::Fatal(format!("{ctx}: the pipeline has no bus"));

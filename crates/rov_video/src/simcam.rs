@@ -49,6 +49,8 @@ use crate::stamp;
 
 /// Refractive index of water (critical angle asin(1/n) = 48.6°).
 const N_WATER: f64 = 1.333;
+/// Side of the seabed tile texture table (tiles of 0.5 m: it repeats every 32 m).
+const TEX_SIDE: usize = 64;
 /// Entries of the fog table, covering 0..FOG_RANGE_VIS visibilities.
 const FOG_TABLE: usize = 1024;
 const FOG_RANGE_VIS: f32 = 8.0;
@@ -300,6 +302,32 @@ fn unit(h: u64, shift: u32) -> f64 {
     ((h >> shift) & 0xFFFF) as f64 / 65535.0
 }
 
+/// A landmark as the renderer needs it, in f32.
+#[derive(Debug, Clone, Copy)]
+struct Disc {
+    north_m: f32,
+    east_m: f32,
+    r2: f32,
+    inner_r2: f32,
+    rgb: [f32; 3],
+    rim: [f32; 3],
+}
+
+impl Disc {
+    fn of(l: Landmark) -> Self {
+        let r = l.radius_m as f32;
+        let [red, green, blue] = l.rgb;
+        Self {
+            north_m: l.north_m as f32,
+            east_m: l.east_m as f32,
+            r2: r * r,
+            inner_r2: (0.8 * r) * (0.8 * r),
+            rgb: l.rgb,
+            rim: [red * 0.3, green * 0.3, blue * 0.3],
+        }
+    }
+}
+
 /// The renderer. Build once ([`SimCamera::new`]), render many frames.
 #[derive(Debug, Clone)]
 pub struct SimCamera {
@@ -307,6 +335,8 @@ pub struct SimCamera {
     model: CameraModel,
     stamp_time: bool,
     fog: Vec<f32>,
+    /// Brightness factor of each seabed tile (0.85..1.15), from the seed.
+    texture: Vec<f32>,
     sun_dir_water: Vector3<f64>,
     cos_critical: f64,
 }
@@ -347,11 +377,22 @@ impl SimCamera {
             -zenith_water.cos(),
         );
         let cos_critical = (1.0 - 1.0 / (N_WATER * N_WATER)).sqrt();
+        let texture = (0..TEX_SIDE * TEX_SIDE)
+            .map(|i| {
+                let h = hash2(
+                    (i / TEX_SIDE) as i64,
+                    (i % TEX_SIDE) as i64,
+                    scene.seed ^ 0x7E47,
+                );
+                0.85 + 0.3 * ((h & 0xFF) as f32 / 255.0)
+            })
+            .collect();
         Ok(Self {
             scene,
             model,
             stamp_time,
             fog,
+            texture,
             sun_dir_water,
             cos_critical,
         })
@@ -508,8 +549,9 @@ impl SimCamera {
         let daylight = (-depth / s.light_falloff_m).exp() as f32;
         let vis = (s.visibility_m + lights * s.lights_visibility_gain_m) as f32;
         let fog_scale = FOG_TABLE as f32 / (FOG_RANGE_VIS * vis);
-        // Beyond this distance the fog hides everything (transmission < 0.4 %).
-        let max_dist = 5.5 * vis;
+        // Beyond this distance the fog hides everything (transmission < 1 %: under one
+        // level of 8-bit colour at these brightnesses).
+        let max_dist = 4.6 * vis;
         let lights_f = lights as f32;
         let water_top = [0.16 * daylight, 0.42 * daylight, 0.50 * daylight];
         let water_bottom = [0.03 * daylight, 0.13 * daylight, 0.17 * daylight];
@@ -517,7 +559,6 @@ impl SimCamera {
         let seabed = s.seabed_depth_m as f32;
         let cam_f = [cam.x as f32, cam.y as f32, cam.z as f32];
         let grid = s.grid_spacing_m as f32;
-        let inv_grid = 1.0 / grid;
         let inv_cell = (1.0 / s.landmark_cell_m) as f32;
         let pixel_angle = (1.0 / f) as f32;
         let sun = [
@@ -530,25 +571,45 @@ impl SimCamera {
         // Daylight reaching the seabed (it travels down through the water).
         let seabed_daylight = (-s.seabed_depth_m / s.light_falloff_m).exp() as f32;
         let sky = daylight.max(0.15);
-        let seed = s.seed;
 
-        // The landmark lookup is cached per cell (neighbouring pixels mostly share one).
-        let mut cached_cell: Option<(i64, i64, Option<Landmark>)> = None;
+        // The landmark lookup is cached per cell (neighbouring pixels mostly share one):
+        // centre, radius² of the disc and of its bright inside, colour.
+        let mut cached_cell: Option<(f32, f32, Option<Disc>)> = None;
 
-        let fog = |dist: f32| -> f32 {
-            let i = (dist * fog_scale) as usize;
-            self.fog.get(i).copied().unwrap_or(0.0)
-        };
         let step = [c1.x as f32, c1.y as f32, c1.z as f32];
+        let setup = TraceSetup {
+            cam: cam_f,
+            seabed,
+            nose: nose_f,
+            sun,
+            fog_scale,
+            grid_m: grid,
+            inv_cell,
+        };
+        let mut rays = RowRays::new(w);
 
         for (v, row) in frame.rgba.chunks_exact_mut(w * 4).enumerate() {
             let dv = v as f64 - cy;
             let base = c0 + c2 * dv - c1 * cx;
-            let mut d = [base.x as f32, base.y as f32, base.z as f32];
-            for px in row.chunks_exact_mut(4) {
-                let len2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-                let inv_len = 1.0 / len2.sqrt();
-                let dz = d[2] * inv_len; // down component of the unit ray
+            rays.trace([base.x as f32, base.y as f32, base.z as f32], step, &setup);
+            let [out_r, out_g, out_b] = &mut rays.rgb;
+            let per_pixel = out_r
+                .iter_mut()
+                .zip(out_g.iter_mut().zip(out_b.iter_mut()))
+                .zip(rays.dz.iter().zip(rays.dist.iter()))
+                .zip(rays.pn.iter().zip(rays.pe.iter()))
+                .zip(rays.lamp.iter().zip(rays.sun.iter()))
+                .zip(rays.fog_index.iter().zip(rays.tile.iter()))
+                .zip(rays.cell_n.iter().zip(rays.cell_e.iter()))
+                .zip(rays.grid_m.iter().zip(rays.ripple.iter()));
+            for (
+                (
+                    ((((px, (&dz, &dist)), (&pn, &pe)), (&lamp_unit, &sun_cos)), (&fog_i, &tile)),
+                    (&ci, &cj),
+                ),
+                (&grid_off, &ripple),
+            ) in per_pixel
+            {
                 // Background water: lighter looking up, darker looking down.
                 let up = (0.5 - 0.5 * dz).clamp(0.0, 1.0);
                 let water = [
@@ -557,132 +618,236 @@ impl SimCamera {
                     water_bottom[2] + (water_top[2] - water_bottom[2]) * up,
                 ];
                 let mut out = water;
-                if dz > 1e-4 {
+                if dz > 1e-4 && dist < max_dist {
                     // Seabed.
-                    let t = (seabed - cam_f[2]) / d[2];
-                    let dist = t * len2 * inv_len;
-                    if dist < max_dist {
-                        let trans = fog(dist);
-                        let pn = cam_f[0] + t * d[0];
-                        let pe = cam_f[1] + t * d[1];
-                        // Tile texture (0.5 m tiles).
-                        let tile = hash2(floor_i64(pn * 2.0), floor_i64(pe * 2.0), seed);
-                        let tex = 0.85 + 0.3 * ((tile & 0xFF) as f32 * (1.0 / 255.0));
-                        let mut col = [sand[0] * tex, sand[1] * tex, sand[2] * tex];
-                        // Grid lines, widened with distance so they never alias to nothing.
-                        let half_w = (0.03f32).max(dist * pixel_angle * 0.75);
-                        let gn = pn * inv_grid;
-                        let ge = pe * inv_grid;
-                        let on = (gn - round_f32(gn)).abs() * grid < half_w;
-                        let oe = (ge - round_f32(ge)).abs() * grid < half_w;
-                        if on || oe {
-                            col = [0.10, 0.10, 0.12];
+                    // `as` saturates (NaN → 0): degenerate rays give in-range indices.
+                    let trans = self.fog.get(fog_i as usize).copied().unwrap_or(0.0);
+                    let tex = self.texture.get(tile as usize).copied().unwrap_or(1.0);
+                    let mut col = [sand[0] * tex, sand[1] * tex, sand[2] * tex];
+                    // Grid lines, widened with distance so they never alias to nothing.
+                    if grid_off < (0.03f32).max(dist * pixel_angle * 0.75) {
+                        col = [0.10, 0.10, 0.12];
+                    }
+                    // Landmark of this cell.
+                    let lm = match cached_cell {
+                        Some((a, b, l)) if a == ci && b == cj => l,
+                        _ => {
+                            let l = self.landmark_at(ci as i64, cj as i64).map(Disc::of);
+                            cached_cell = Some((ci, cj, l));
+                            l
                         }
-                        // Landmark of this cell.
-                        let ci = floor_i64(pn * inv_cell);
-                        let cj = floor_i64(pe * inv_cell);
-                        let lm = match cached_cell {
-                            Some((a, b, l)) if a == ci && b == cj => l,
-                            _ => {
-                                let l = self.landmark_at(ci, cj);
-                                cached_cell = Some((ci, cj, l));
-                                l
-                            }
-                        };
-                        if let Some(l) = lm {
-                            let dn = pn - l.north_m as f32;
-                            let de = pe - l.east_m as f32;
-                            let r2 = dn * dn + de * de;
-                            let r = l.radius_m as f32;
-                            if r2 < r * r {
-                                let rim = r2 > (0.8 * r) * (0.8 * r);
-                                col = if rim {
-                                    [l.rgb[0] * 0.3, l.rgb[1] * 0.3, l.rgb[2] * 0.3]
-                                } else {
-                                    l.rgb
-                                };
-                            }
+                    };
+                    if let Some(l) = lm {
+                        let dn = pn - l.north_m;
+                        let de = pe - l.east_m;
+                        let r2 = dn * dn + de * de;
+                        if r2 < l.r2 {
+                            col = if r2 > l.inner_r2 { l.rim } else { l.rgb };
                         }
-                        // Daylight from above plus the vehicle's lights along its nose.
-                        let along =
-                            (d[0] * nose_f[0] + d[1] * nose_f[1] + d[2] * nose_f[2]) * inv_len;
-                        let spot = if along > 0.0 {
-                            let a2 = along * along;
-                            a2 * a2
+                    }
+                    // Daylight from above plus the vehicle's lights along its nose.
+                    let light = (1.1 * seabed_daylight + lights_f * lamp_unit) * trans;
+                    let keep = 1.0 - trans;
+                    out = [
+                        col[0] * light + water[0] * keep,
+                        col[1] * light + water[1] * keep,
+                        col[2] * light + water[2] * keep,
+                    ];
+                } else if dz < -1e-4 && dist < max_dist {
+                    // Surface above.
+                    let trans = self.fog.get(fog_i as usize).copied().unwrap_or(0.0);
+                    let col = if -dz > cos_crit {
+                        // Inside Snell's window: the sky, brightest towards the sun.
+                        let glare = if sun_cos > 0.9 {
+                            (sun_cos - 0.9) * 10.0
                         } else {
                             0.0
                         };
-                        let lamp = lights_f * 1.6 * spot / (1.0 + dist * dist * 0.04);
-                        let light = (1.1 * seabed_daylight + lamp) * trans;
-                        let keep = 1.0 - trans;
-                        out = [
-                            col[0] * light + water[0] * keep,
-                            col[1] * light + water[1] * keep,
-                            col[2] * light + water[2] * keep,
-                        ];
-                    }
-                } else if dz < -1e-4 {
-                    // Surface above.
-                    let t = cam_f[2] / -d[2];
-                    let dist = t * len2 * inv_len;
-                    if dist < max_dist {
-                        let trans = fog(dist);
-                        let pn = cam_f[0] + t * d[0];
-                        let pe = cam_f[1] + t * d[1];
-                        // Two wave trains fixed in the world.
-                        let ripple = 1.0
-                            + 0.18 * fast_sin(pn * 2.6 + pe * 1.5) * fast_sin(pe * 3.1 - pn * 1.2);
-                        let col = if -dz > cos_crit {
-                            // Inside Snell's window: the sky, brightest towards the sun.
-                            let c = (d[0] * sun[0] + d[1] * sun[1] + d[2] * sun[2]) * inv_len;
-                            let glare = if c > 0.9 { (c - 0.9) * 10.0 } else { 0.0 };
-                            let b = (0.75 + 0.9 * glare * glare) * ripple * sky;
-                            [0.70 * b, 0.88 * b, 0.95 * b]
-                        } else {
-                            // Total reflection of the water below, lit by the ripples.
-                            let b = 0.9 * ripple;
-                            [
-                                water_top[0] * b,
-                                water_top[1] * b * 1.05,
-                                water_top[2] * b * 1.05,
-                            ]
-                        };
-                        let keep = 1.0 - trans;
-                        out = [
-                            col[0] * trans + water[0] * keep,
-                            col[1] * trans + water[1] * keep,
-                            col[2] * trans + water[2] * keep,
-                        ];
-                    }
+                        let b = (0.75 + 0.9 * glare * glare) * ripple * sky;
+                        [0.70 * b, 0.88 * b, 0.95 * b]
+                    } else {
+                        // Total reflection of the water below, lit by the ripples.
+                        let b = 0.9 * ripple;
+                        [
+                            water_top[0] * b,
+                            water_top[1] * b * 1.05,
+                            water_top[2] * b * 1.05,
+                        ]
+                    };
+                    let keep = 1.0 - trans;
+                    out = [
+                        col[0] * trans + water[0] * keep,
+                        col[1] * trans + water[1] * keep,
+                        col[2] * trans + water[2] * keep,
+                    ];
                 }
-                px.copy_from_slice(&[to_u8(out[0]), to_u8(out[1]), to_u8(out[2]), 255]);
-                d[0] += step[0];
-                d[1] += step[1];
-                d[2] += step[2];
+                let (r, (g, b)) = px;
+                (*r, *g, *b) = (out[0], out[1], out[2]);
             }
+            rays.store(row);
         }
     }
 }
 
-/// ⌊x⌋ without a libm call (x86-64 without SSE4.1 has no rounding instruction).
-fn floor_i64(x: f32) -> i64 {
-    let i = x as i64;
-    if (i as f32) > x { i - 1 } else { i }
+/// The rays of one image row, traced in a branch-free pass the compiler vectorises:
+/// the unit ray's down component, the distance to the seabed (looking down) or the
+/// surface (looking up), the hit point with its fog-table index, texture tile, landmark
+/// cell, distance to the nearest grid line and surface ripple, and the cosines to the
+/// vehicle's nose and the sun. The shading pass then only looks things up.
+struct RowRays {
+    dz: Vec<f32>,
+    dist: Vec<f32>,
+    pn: Vec<f32>,
+    pe: Vec<f32>,
+    along: Vec<f32>,
+    sun: Vec<f32>,
+    fog_index: Vec<f32>,
+    tile: Vec<f32>,
+    cell_n: Vec<f32>,
+    cell_e: Vec<f32>,
+    grid_m: Vec<f32>,
+    ripple: Vec<f32>,
+    /// The lights' beam on the seabed point per unit of lights: cos⁴ off the nose over
+    /// (1 + (d / 5 m)²).
+    lamp: Vec<f32>,
+    /// The shaded colour, before conversion to bytes.
+    rgb: [Vec<f32>; 3],
 }
 
-/// x rounded to the nearest integer (ties away from zero do not matter here).
-fn round_f32(x: f32) -> f32 {
-    floor_i64(x + 0.5) as f32
+/// What [`RowRays::trace`] needs of the scene and the pose, in f32.
+#[derive(Clone, Copy)]
+struct TraceSetup {
+    cam: [f32; 3],
+    seabed: f32,
+    nose: [f32; 3],
+    sun: [f32; 3],
+    fog_scale: f32,
+    grid_m: f32,
+    inv_cell: f32,
+}
+
+impl RowRays {
+    fn new(w: usize) -> Self {
+        Self {
+            dz: vec![0.0; w],
+            dist: vec![0.0; w],
+            pn: vec![0.0; w],
+            pe: vec![0.0; w],
+            along: vec![0.0; w],
+            sun: vec![0.0; w],
+            fog_index: vec![0.0; w],
+            tile: vec![0.0; w],
+            cell_n: vec![0.0; w],
+            cell_e: vec![0.0; w],
+            grid_m: vec![0.0; w],
+            ripple: vec![0.0; w],
+            lamp: vec![0.0; w],
+            rgb: [vec![0.0; w], vec![0.0; w], vec![0.0; w]],
+        }
+    }
+
+    /// Pixel u looks along `base + u · step` (NED, not normalised).
+    fn trace(&mut self, base: [f32; 3], step: [f32; 3], k: &TraceSetup) {
+        let below = k.seabed - k.cam[2];
+        let above = -k.cam[2];
+        let inv_grid = 1.0 / k.grid_m;
+        let geometry = self
+            .dz
+            .iter_mut()
+            .zip(self.dist.iter_mut())
+            .zip(self.pn.iter_mut().zip(self.pe.iter_mut()))
+            .zip(self.along.iter_mut().zip(self.sun.iter_mut()));
+        for (u, (((dz, dist), (pn, pe)), (along, sun_cos))) in geometry.enumerate() {
+            let uf = u as f32;
+            let dx = base[0] + uf * step[0];
+            let dy = base[1] + uf * step[1];
+            let dd = base[2] + uf * step[2];
+            let len = (dx * dx + dy * dy + dd * dd).sqrt();
+            let inv = 1.0 / len;
+            let t = if dd > 0.0 { below } else { above } / dd;
+            *dz = dd * inv;
+            *dist = t * len;
+            *pn = k.cam[0] + t * dx;
+            *pe = k.cam[1] + t * dy;
+            *along = (dx * k.nose[0] + dy * k.nose[1] + dd * k.nose[2]) * inv;
+            *sun_cos = (dx * k.sun[0] + dy * k.sun[1] + dd * k.sun[2]) * inv;
+        }
+        let lookups = self
+            .fog_index
+            .iter_mut()
+            .zip(self.tile.iter_mut())
+            .zip(self.cell_n.iter_mut().zip(self.cell_e.iter_mut()))
+            .zip(self.grid_m.iter_mut().zip(self.ripple.iter_mut()))
+            .zip(self.pn.iter().zip(self.pe.iter()).zip(self.dist.iter()));
+        for ((((fog, tile), (cn, ce)), (grid, ripple)), ((&pn, &pe), &dist)) in lookups {
+            // Float-only arithmetic (no conversions), so this loop vectorises too.
+            *fog = (dist * k.fog_scale).min(FOG_TABLE as f32);
+            let ti = floor_f(pn * 2.0);
+            let tj = floor_f(pe * 2.0);
+            let side = TEX_SIDE as f32;
+            let mi = ti - side * floor_f(ti * (1.0 / side));
+            let mj = tj - side * floor_f(tj * (1.0 / side));
+            *tile = mi * side + mj;
+            *cn = floor_f(pn * k.inv_cell);
+            *ce = floor_f(pe * k.inv_cell);
+            let gn = pn * inv_grid;
+            let ge = pe * inv_grid;
+            let off_n = (gn - round_f(gn)).abs();
+            let off_e = (ge - round_f(ge)).abs();
+            *grid = off_n.min(off_e) * k.grid_m;
+            // Two wave trains fixed in the world.
+            *ripple = 1.0 + 0.18 * fast_sin(pn * 2.6 + pe * 1.5) * fast_sin(pe * 3.1 - pn * 1.2);
+        }
+        for ((lamp, &along), &dist) in self
+            .lamp
+            .iter_mut()
+            .zip(self.along.iter())
+            .zip(self.dist.iter())
+        {
+            let a = along.max(0.0);
+            let a2 = a * a;
+            *lamp = 1.6 * a2 * a2 / (1.0 + dist * dist * 0.04);
+        }
+    }
+
+    /// Writes the shaded colours of the row as RGBA bytes (a loop that vectorises).
+    fn store(&self, row: &mut [u8]) {
+        let [r, g, b] = &self.rgb;
+        for (px, ((&r, &g), &b)) in row
+            .chunks_exact_mut(4)
+            .zip(r.iter().zip(g.iter()).zip(b.iter()))
+        {
+            px.copy_from_slice(&[to_u8(r), to_u8(g), to_u8(b), 255]);
+        }
+    }
+}
+
+/// 1.5 · 2²³: adding and subtracting it rounds an f32 to the nearest integer (ties to
+/// even) for |x| < 2²², with plain float arithmetic that vectorises (x86-64 without
+/// SSE4.1 has no rounding instruction, and a float → int cast saturates in Rust).
+const ROUND_MAGIC: f32 = 12_582_912.0;
+
+/// x rounded to the nearest integer (|x| < 2²²; larger values come back unchanged or
+/// off by one, which only shifts a texture).
+fn round_f(x: f32) -> f32 {
+    (x + ROUND_MAGIC) - ROUND_MAGIC
+}
+
+/// ⌊x⌋ (same range as [`round_f`]).
+fn floor_f(x: f32) -> f32 {
+    let r = round_f(x);
+    if r > x { r - 1.0 } else { r }
 }
 
 /// sin x to about 0.1 % (a parabola with one correction step), for the ripples.
 fn fast_sin(x: f32) -> f32 {
     use std::f32::consts::{PI, TAU};
-    let x = x - TAU * round_f32(x / TAU); // −π..π
+    let x = x - TAU * round_f(x * (1.0 / TAU)); // −π..π
     let y = (4.0 / PI) * x - (4.0 / (PI * PI)) * x * x.abs();
     0.225 * (y * y.abs() - y) + y
 }
 
+/// 0..1 to 0..255 (`as` saturates: below 0 → 0, above → 255, NaN → 0).
 fn to_u8(x: f32) -> u8 {
-    (x * 255.0).clamp(0.0, 255.0) as u8
+    (x * 255.0) as u8
 }
