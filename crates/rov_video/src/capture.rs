@@ -42,7 +42,6 @@ use gstreamer as gst;
 use gstreamer::prelude::*;
 use gstreamer_app as gst_app;
 use gstreamer_video as gst_video;
-use gstreamer_video::prelude::*;
 
 use crate::error::{Result, VideoError};
 use crate::frame::{FrameSink, FrameSlot, TimeSource, VideoFrame};
@@ -626,18 +625,9 @@ fn frame_from_sample(
     now_ns: u64,
     shared: &Shared,
 ) -> Option<Delivered> {
-    let caps = sample.caps()?;
-    let info = gst_video::VideoInfo::from_caps(caps).ok()?;
+    let (w, h, rgba) = gst_util::rgba_of_sample(sample)?;
+    let info = gst_video::VideoInfo::from_caps(sample.caps()?).ok()?;
     let buffer = sample.buffer()?;
-    let vframe = gst_video::VideoFrameRef::from_buffer_ref_readable(buffer, &info).ok()?;
-    let (w, h) = (info.width(), info.height());
-    let row_bytes = w as usize * 4;
-    let stride = usize::try_from(*vframe.plane_stride().first()?).ok()?;
-    let data = vframe.plane_data(0).ok()?;
-    let mut rgba = Vec::with_capacity(row_bytes * h as usize);
-    for row in data.chunks(stride.max(1)).take(h as usize) {
-        rgba.extend_from_slice(row.get(..row_bytes)?);
-    }
     // Time spent in the pipeline: clock now − the buffer's capture time in clock time.
     let pts = buffer.pts();
     let delay_ns = (|| {

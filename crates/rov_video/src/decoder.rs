@@ -13,8 +13,6 @@ use std::time::{Duration, Instant};
 use gstreamer as gst;
 use gstreamer::prelude::*;
 use gstreamer_app as gst_app;
-use gstreamer_video as gst_video;
-use gstreamer_video::prelude::*;
 
 use crate::annexb::{self, AccessUnit};
 use crate::error::{Result, VideoError};
@@ -181,18 +179,8 @@ impl Decoder {
     }
 
     fn frame_of(&mut self, sample: &gst::Sample) -> Option<VideoFrame> {
-        let info = gst_video::VideoInfo::from_caps(sample.caps()?).ok()?;
-        let buffer = sample.buffer()?;
-        let pts = buffer.pts()?.nseconds();
-        let vf = gst_video::VideoFrameRef::from_buffer_ref_readable(buffer, &info).ok()?;
-        let (w, h) = (info.width(), info.height());
-        let row_bytes = w as usize * 4;
-        let stride = usize::try_from(*vf.plane_stride().first()?).ok()?;
-        let data = vf.plane_data(0).ok()?;
-        let mut rgba = Vec::with_capacity(row_bytes * h as usize);
-        for row in data.chunks(stride.max(1)).take(h as usize) {
-            rgba.extend_from_slice(row.get(..row_bytes)?);
-        }
+        let pts = sample.buffer()?.pts()?.nseconds();
+        let (w, h, rgba) = gst_util::rgba_of_sample(sample)?;
         let seq = self.seq;
         self.seq += 1;
         VideoFrame::new(w, h, pts, seq, rgba).ok()

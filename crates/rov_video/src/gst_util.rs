@@ -263,6 +263,24 @@ pub fn by_name<T: IsA<gst::Element>>(
         })
 }
 
+/// The pixels of an RGBA sample, tightly packed (rows copied past any stride padding),
+/// with the width and height; `None` if the sample is not readable RGBA video.
+pub(crate) fn rgba_of_sample(sample: &gst::Sample) -> Option<(u32, u32, Vec<u8>)> {
+    use gstreamer_video::prelude::*;
+    let info = gstreamer_video::VideoInfo::from_caps(sample.caps()?).ok()?;
+    let buffer = sample.buffer()?;
+    let frame = gstreamer_video::VideoFrameRef::from_buffer_ref_readable(buffer, &info).ok()?;
+    let (w, h) = (info.width(), info.height());
+    let row_bytes = w as usize * 4;
+    let stride = usize::try_from(*frame.plane_stride().first()?).ok()?;
+    let data = frame.plane_data(0).ok()?;
+    let mut rgba = Vec::with_capacity(row_bytes * h as usize);
+    for row in data.chunks(stride.max(1)).take(h as usize) {
+        rgba.extend_from_slice(row.get(..row_bytes)?);
+    }
+    Some((w, h, rgba))
+}
+
 /// Nanoseconds of a `Duration`, saturating.
 pub(crate) fn nanos(d: Duration) -> u64 {
     u64::try_from(d.as_nanos()).unwrap_or(u64::MAX)

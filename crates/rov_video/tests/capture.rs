@@ -9,8 +9,8 @@ use std::sync::Arc;
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
-use common::{Recorder, encode, free_udp_port, udp_sender, wait_for};
-use rov_video::simcam::{CameraModel, CameraPose, SimCamera, SimScene};
+use common::{Recorder, encode, free_udp_port, sim_camera, udp_sender, wait_for};
+use rov_video::simcam::CameraPose;
 use rov_video::{
     Capture, CaptureConfig, CaptureState, Encoder, EncoderConfig, FrameSink, OutputSize,
     SourceSpec, TimeSource, VideoError,
@@ -109,27 +109,8 @@ fn killed_udp_camera_shows_no_video_within_1_s_and_reconnects() {
 
 /// A raw H.264 file whose picture size changes half way, made by our encoder.
 fn size_change_file(dir: &std::path::Path) -> std::path::PathBuf {
-    let scene = SimScene::default();
-    let big = SimCamera::new(
-        scene.clone(),
-        CameraModel {
-            width_px: 320,
-            height_px: 240,
-            hfov_deg: 75.0,
-        },
-        false,
-    )
-    .unwrap();
-    let small = SimCamera::new(
-        scene,
-        CameraModel {
-            width_px: 160,
-            height_px: 120,
-            hfov_deg: 75.0,
-        },
-        false,
-    )
-    .unwrap();
+    let big = sim_camera(320, 240);
+    let small = sim_camera(160, 120);
     let pose = CameraPose {
         down_m: 3.0,
         ..CameraPose::default()

@@ -8,7 +8,7 @@ mod common;
 use std::sync::Arc;
 use std::time::Duration;
 
-use common::encode;
+use common::{encode, sim_camera};
 use rov_video::annexb::{self, nal};
 use rov_video::simcam::{CameraModel, CameraPose, SimCamera, SimScene};
 use rov_video::stamp;
@@ -97,16 +97,7 @@ fn sim_camera_round_trip_keeps_count_size_times_and_motion() {
 #[test]
 fn key_frames_at_least_every_2_s_of_capture_time_even_at_a_low_rate() {
     for (fps, seconds) in [(25u64, 9u64), (10, 9), (4, 12)] {
-        let cam = SimCamera::new(
-            SimScene::default(),
-            CameraModel {
-                width_px: 160,
-                height_px: 120,
-                hfov_deg: 75.0,
-            },
-            false,
-        )
-        .unwrap();
+        let cam = sim_camera(160, 120);
         let period = 1_000_000_000 / fps;
         let frames = (0..fps * seconds).map(|i| {
             let pose = CameraPose {
@@ -145,22 +136,12 @@ fn key_frames_at_least_every_2_s_of_capture_time_even_at_a_low_rate() {
 
 #[test]
 fn a_size_change_starts_a_new_sequence_and_decodes() {
-    let scene = SimScene::default();
     let mut frames = Vec::new();
     for (k, (w, h)) in [(320u32, 240u32), (176, 144), (320, 240)]
         .into_iter()
         .enumerate()
     {
-        let cam = SimCamera::new(
-            scene.clone(),
-            CameraModel {
-                width_px: w,
-                height_px: h,
-                hfov_deg: 75.0,
-            },
-            false,
-        )
-        .unwrap();
+        let cam = sim_camera(w, h);
         for i in 0..15u64 {
             let n = k as u64 * 15 + i;
             frames.push(cam.render(

@@ -6,7 +6,18 @@ use std::process::{Child, Command, Stdio};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
+use rov_video::simcam::{CameraModel, SimCamera, SimScene};
 use rov_video::{AccessUnit, Encoder, EncoderConfig, FrameSink, VideoFrame};
+
+/// The simulator's camera at another picture size (default scene, no stamp).
+pub fn sim_camera(width_px: u32, height_px: u32) -> SimCamera {
+    let model = CameraModel {
+        width_px,
+        height_px,
+        hfov_deg: 75.0,
+    };
+    SimCamera::new(SimScene::default(), model, false).unwrap()
+}
 
 /// A sink that keeps every frame's size, time and sequence number.
 #[derive(Default)]
