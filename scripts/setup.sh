@@ -7,7 +7,21 @@ set -euo pipefail
 #   pkg-config, libudev-dev  gilrs (gamepads) builds against libudev
 #   xvfb, xauth              the real-window GUI test runs the station under a virtual display
 #   mesa-vulkan-drivers, libvulkan1  a CPU Vulkan adapter (lavapipe) for wgpu/egui_kittest
-APT_PACKAGES=(pkg-config libudev-dev xvfb xauth mesa-vulkan-drivers libvulkan1)
+#   libgstreamer1.0-dev, libgstreamer-plugins-base1.0-dev
+#                            rov_video (camera video) builds against GStreamer core, app,
+#                            video and pbutils through gstreamer-rs
+#   gstreamer1.0-plugins-base  videotestsrc, videoconvert/scale, appsrc/appsink, the
+#                            text and clock overlays, playbin/uridecodebin
+#   gstreamer1.0-plugins-good  v4l2src (USB frame grabbers), RTSP, RTP/UDP, mp4mux
+#   gstreamer1.0-plugins-bad   h264parse (access units, SPS/PPS with every key frame)
+#   gstreamer1.0-plugins-ugly  x264enc (the H.264 encoder of recordings and exports)
+#   gstreamer1.0-libav         avdec_h264 (decoding for replay and network sources)
+#   gstreamer1.0-tools         gst-launch-1.0 / gst-inspect-1.0 (source tests, diagnosis)
+#   ffmpeg                     ffprobe: tests check that an exported MP4 plays
+APT_PACKAGES=(pkg-config libudev-dev xvfb xauth mesa-vulkan-drivers libvulkan1
+  libgstreamer1.0-dev libgstreamer-plugins-base1.0-dev gstreamer1.0-plugins-base
+  gstreamer1.0-plugins-good gstreamer1.0-plugins-bad gstreamer1.0-plugins-ugly
+  gstreamer1.0-libav gstreamer1.0-tools ffmpeg)
 
 missing=()
 for p in "${APT_PACKAGES[@]}"; do
