@@ -585,4 +585,51 @@ mod tests {
         p.set_time(3.5);
         assert_eq!(p.view.link.quality, Quality::Red);
     }
+
+    /// Issue 15 #8: one failed exchange in a 0.5 s interval (1 of 27, 3.7 %) does not
+    /// turn the light amber; a sustained error rate does.
+    #[test]
+    fn the_link_light_needs_a_sustained_error_rate_for_amber() {
+        let mut p = Pipeline::new(Source::Sim);
+        let rec = |x: u64, e: u64| LinkRecord {
+            state: LinkState::Connected,
+            exchanges: x,
+            total_errors: e,
+            rtt_p50_ms: 7.0,
+            rtt_p99_ms: 8.0,
+            ..LinkRecord::default()
+        };
+        let (mut x, mut e) = (0u64, 0u64);
+        for k in 0..40 {
+            let t = f64::from(k) * 0.5;
+            x += 27;
+            if k == 20 {
+                e += 1;
+            }
+            p.nav(t, &NavRecord::default());
+            p.link(t, &rec(x, e));
+            p.set_time(t);
+            assert_eq!(
+                p.view.link.quality,
+                Quality::Green,
+                "t = {t}: {:?}",
+                p.view.link
+            );
+        }
+        // 2 of 27 failing for several seconds: amber.
+        let mut amber_at = None;
+        for k in 40..60 {
+            let t = f64::from(k) * 0.5;
+            x += 27;
+            e += 2;
+            p.nav(t, &NavRecord::default());
+            p.link(t, &rec(x, e));
+            p.set_time(t);
+            if p.view.link.quality == Quality::Amber && amber_at.is_none() {
+                amber_at = Some(t);
+            }
+        }
+        let at = amber_at.expect("a sustained 7 % error rate must show amber");
+        assert!(at > 20.0 && at <= 25.0, "amber at {at}");
+    }
 }
