@@ -146,6 +146,16 @@ pub struct StationApp {
     pub(crate) screenshot: Option<ScreenshotRequest>,
     pub(crate) repaint_ms: u64,
     pub(crate) styled: bool,
+    /// Start recording on every new connection (settings; on by default).
+    pub(crate) record_on_connect: bool,
+    /// The recordings of this station run, oldest first (kept across connections).
+    pub(crate) recordings: Vec<PathBuf>,
+    /// What fills the Fly tab's centre instead of the instrument layout (the camera).
+    pub(crate) main_view: Option<Box<dyn crate::fly::MainView>>,
+    /// The V key's choice: the instrument-only layout even when a main view exists.
+    pub(crate) instruments_only: bool,
+    /// What the last frame laid out (for the clipping checks).
+    pub(crate) layout: crate::layout::LayoutAudit,
 }
 
 impl std::fmt::Debug for StationApp {
@@ -186,9 +196,51 @@ impl StationApp {
             screenshot: None,
             repaint_ms: 33,
             styled: false,
+            record_on_connect: true,
+            recordings: Vec::new(),
+            main_view: None,
+            instruments_only: false,
+            layout: crate::layout::LayoutAudit::default(),
         };
         app.set_live(live);
         app
+    }
+
+    /// Whether every new connection starts a recording (default on).
+    #[must_use]
+    pub fn with_record_on_connect(mut self, on: bool) -> Self {
+        self.record_on_connect = on;
+        self
+    }
+
+    /// Sets what fills the Fly tab's centre (the camera picture); the instruments are
+    /// drawn over it, and V switches to the instrument-only layout.
+    pub fn set_main_view(&mut self, view: Box<dyn crate::fly::MainView>) {
+        self.main_view = Some(view);
+    }
+
+    /// The recordings made since the station started, oldest first.
+    #[must_use]
+    pub fn recordings(&self) -> &[PathBuf] {
+        &self.recordings
+    }
+
+    /// The most recent finished (or current) recording.
+    #[must_use]
+    pub fn last_recording(&self) -> Option<&PathBuf> {
+        self.recordings.last()
+    }
+
+    /// Controls the last frame cut off (see [`crate::layout`]).
+    #[must_use]
+    pub fn clipped_widgets(&self, ctx: &egui::Context) -> Vec<crate::layout::ClippedWidget> {
+        crate::layout::clipped_widgets(ctx, &self.layout, 1.0)
+    }
+
+    /// The Fly tab's main view rectangle in the last frame.
+    #[must_use]
+    pub fn main_view_rect(&self) -> Option<egui::Rect> {
+        self.layout.main_rect
     }
 
     /// Takes a screenshot after `after_s` seconds, saves it and closes the window.
@@ -269,7 +321,30 @@ impl StationApp {
         self.live = live;
         self.live_hist = History::default();
         self.live_view = StationView::default();
+        if self.record_on_connect && self.live.is_some() {
+            // Every connection records from its start, unless the pilot switched it
+            // off in the settings; the REC control shows which.
+            let path = self.backend.recording_path();
+            self.live_cmd(RuntimeCommand::StartRecording(path));
+        }
         self.poll();
+    }
+
+    /// Makes `live` the live station (a new connection: it records when recording on
+    /// connection is on).
+    pub fn connect_handle(&mut self, live: Option<StationHandle>) {
+        self.set_live(live);
+    }
+
+    /// Opens a session for replay, or says what is missing when `text` is empty.
+    pub(crate) fn open_replay_text(&mut self, text: &str) {
+        let t = text.trim();
+        if t.is_empty() {
+            self.message =
+                Some("no file chosen: type the path of a session (.mcap) or use Browse".into());
+            return;
+        }
+        self.open_replay(Path::new(t));
     }
 
     /// Opens a session for replay (errors go to the message line).
@@ -320,6 +395,15 @@ impl StationApp {
         if let Some(h) = &self.live {
             self.live_view = h.view();
             h.sync_history(&mut self.live_hist);
+            let r = &self.live_view.recording;
+            for p in [r.last_file.as_ref(), r.path.as_ref()]
+                .into_iter()
+                .flatten()
+            {
+                if !self.recordings.contains(p) {
+                    self.recordings.push(p.clone());
+                }
+            }
         }
         if let Some(h) = &self.replay {
             self.replay_view = h.view();
@@ -336,6 +420,8 @@ impl StationApp {
             self.styled = true;
         }
         self.poll();
+        self.layout.scroll_viewports.clear();
+        self.layout.main_rect = None;
         self.keyboard(ui);
         self.top_bar(ui);
         self.alarm_bar(ui);
@@ -367,6 +453,22 @@ impl StationApp {
                 self.kb_active = false;
             }
             return;
+        }
+        let (step, toggle_view) = ui.input(|i| {
+            let step = if i.key_pressed(Key::Period) {
+                Some(rov_station::runtime::ReplayCommand::Step)
+            } else if i.key_pressed(Key::Comma) {
+                Some(rov_station::runtime::ReplayCommand::StepBack)
+            } else {
+                None
+            };
+            (step, i.key_pressed(Key::V))
+        });
+        if let Some(c) = step {
+            self.replay_cmd(c);
+        }
+        if toggle_view && self.main_view.is_some() {
+            self.instruments_only = !self.instruments_only;
         }
         let (sticks, space, esc, gain, hold_d, hold_h) = ui.input(|i| {
             let axis = |pos: Key, neg: Key| {
@@ -435,7 +537,12 @@ impl StationApp {
                     } else {
                         ("SAFE", theme::GREEN)
                     };
-                    ui.label(RichText::new(state).size(22.0).strong().color(color));
+                    ui.vertical(|ui| {
+                        ui.label(RichText::new(state).size(22.0).strong().color(color));
+                        if let Some(h) = &v.hint {
+                            ui.label(RichText::new(h).small().strong().color(theme::AMBER));
+                        }
+                    });
                     ui.separator();
                     // Gain steps, always visible.
                     ui.vertical(|ui| {

@@ -17,9 +17,10 @@
 
 pub mod app;
 mod connection;
-mod fly;
+pub mod fly;
 pub mod instruments;
 pub mod lab;
+pub mod layout;
 mod panels;
 pub mod plots;
 mod replay;
@@ -31,6 +32,7 @@ use std::sync::mpsc::{Receiver, channel};
 use std::time::Duration;
 
 pub use app::{AutodetectResult, Backend, ScreenshotRequest, StationApp, Tab};
+pub use fly::MainView;
 use rov_station::runtime::{Connection, Runtime, RuntimeConfig, StationHandle};
 
 /// The real backend: stations on their own threads ([`Runtime`]).

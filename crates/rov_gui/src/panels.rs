@@ -348,7 +348,7 @@ pub(crate) fn recording_control(app: &mut StationApp, ui: &mut Ui) {
                 ui.label(RichText::new(format!("{name} · {} msgs", r.messages)).small());
             }
             None => {
-                ui.label(RichText::new("not recording").color(theme::DIM));
+                ui.label(RichText::new("NOT RECORDING").strong().color(theme::AMBER));
                 if let Some(p) = &r.last_file {
                     let name = p
                         .file_name()

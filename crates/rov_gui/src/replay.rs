@@ -3,8 +3,6 @@
 //! REPLAY badge. The instruments and plots show the replay; arming and the alarm bar
 //! stay on the live station.
 
-use std::path::PathBuf;
-
 use egui::{RichText, Ui, vec2};
 use rov_station::runtime::ReplayCommand;
 
@@ -39,7 +37,18 @@ pub(crate) fn replay_bar(app: &mut StationApp, ui: &mut Ui) {
                 {
                     app.replay_cmd(ReplayCommand::Toggle);
                 }
-                if ui.button("Step").clicked() {
+                if ui
+                    .button("Step back")
+                    .on_hover_text("one control tick back (,)")
+                    .clicked()
+                {
+                    app.replay_cmd(ReplayCommand::StepBack);
+                }
+                if ui
+                    .button("Step")
+                    .on_hover_text("one control tick forward (.)")
+                    .clicked()
+                {
                     app.replay_cmd(ReplayCommand::Step);
                 }
                 let mut speed = r.speed;
@@ -95,14 +104,20 @@ pub(crate) fn replay_tab(app: &mut StationApp, ui: &mut Ui) {
         )
         .labelled_by(l.id);
         if ui.button("Open").clicked() {
-            let p = PathBuf::from(app.replay_path.trim());
-            app.open_replay(&p);
+            let p = app.replay_path.clone();
+            app.open_replay_text(&p);
         }
         if app.replay.is_some() && ui.button("Close replay").clicked() {
             app.close_replay();
         }
     });
-    if let Some(last) = app.live_view.recording.last_file.clone()
+    let last = app
+        .live_view
+        .recording
+        .last_file
+        .clone()
+        .or_else(|| app.last_recording().cloned());
+    if let Some(last) = last
         && ui
             .button(format!(
                 "Open the last recording ({})",
@@ -144,9 +159,36 @@ pub(crate) fn replay_tab(app: &mut StationApp, ui: &mut Ui) {
             ui.label(RichText::new(format!("warning: {w}")).color(theme::AMBER));
         }
         ui.separator();
-        ui.label(RichText::new("Events").strong());
-        for e in app.replay_view.events.iter().rev() {
-            ui.label(RichText::new(e).monospace().small());
-        }
+        events_index(app, ui, &r);
+    }
+}
+
+/// Every event of the session, clickable: a click moves the play head there.
+fn events_index(app: &mut StationApp, ui: &mut Ui, r: &rov_station::runtime::ReplayView) {
+    ui.label(RichText::new(format!("Events ({}): click to jump", r.index.len())).strong());
+    let mut seek = None;
+    let now = r.position_s;
+    let current = r.index.iter().rposition(|e| e.t_s <= now + 1e-6);
+    egui::ScrollArea::vertical()
+        .id_salt("replay_events")
+        .auto_shrink([false, true])
+        .show(ui, |ui| {
+            for (i, e) in r.index.iter().enumerate() {
+                let color = match e.severity {
+                    rov_session::Severity::Alarm => theme::RED,
+                    rov_session::Severity::Warning => theme::AMBER,
+                    rov_session::Severity::Info => theme::SCALE,
+                };
+                let text = RichText::new(format!("{}  {:<10} {}", mmss(e.t_s), e.kind, e.text))
+                    .monospace()
+                    .small()
+                    .color(color);
+                if ui.selectable_label(current == Some(i), text).clicked() {
+                    seek = Some(e.t_s);
+                }
+            }
+        });
+    if let Some(t) = seek {
+        app.replay_cmd(ReplayCommand::Seek(t));
     }
 }

@@ -85,7 +85,11 @@ fn fly_tab_arm_hold_depth_hold_and_setpoint() {
     // Drag the setpoint on the depth tape: from the centre 60 px down = deeper.
     r.run(6.0);
     let before = r.view().depth.setpoint.unwrap();
-    let c = r.harness.get_by_label("depth tape").rect().center();
+    let c = r
+        .harness
+        .get_by_label_contains("depth tape")
+        .rect()
+        .center();
     r.press(c, true);
     for k in 1..=6 {
         r.harness
@@ -163,7 +167,8 @@ fn record_then_open_a_replay() {
     let mut r = rig("replay-source.mcap");
     r.run(2.0);
     r.arm();
-    r.click("REC");
+    // Every connection records from its start.
+    assert!(r.view().recording.path.is_some());
     r.click_nth("OFF", 0);
     r.click_nth("+1", 0);
     r.click_nth("OFF", 0); // the heading row's (depth now shows HOLD)

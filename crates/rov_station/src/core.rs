@@ -39,8 +39,8 @@ pub enum StationCommand {
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]
 pub enum CommandError {
-    /// The link refused to arm.
-    #[error("cannot arm: {0}")]
+    /// The link refused to arm (its text already says "cannot arm").
+    #[error("{0}")]
     Arm(#[from] ArmError),
     /// The controller refused the command.
     #[error("{0}")]

@@ -68,8 +68,8 @@ pub use shaping::{AxisShaping, GAIN_STEPS_PCT, Gain, StickShaping};
 pub use sim::VirtualStation;
 pub use timing::TickStats;
 pub use view::{
-    AxisModeView, AxisView, CameraView, HealthView, LinkView, PadStatus, PilotView, Quality,
-    RecordingView, ReplayView, Source, StationView,
+    AxisModeView, AxisView, CameraView, HealthView, IndexedEvent, LinkView, PadStatus, PilotView,
+    Quality, RecordingView, ReplayView, STALE_AFTER_S, Source, StaleView, StationView,
 };
 
 /// How to reach the vehicle.
@@ -178,8 +178,10 @@ pub enum ReplayCommand {
     Speed(f64),
     /// Seek to s since the session start.
     Seek(f64),
-    /// One message forward (pauses).
+    /// One control tick forward (pauses).
     Step,
+    /// One control tick back (pauses).
+    StepBack,
 }
 
 /// Everything the GUI (or a script) can ask of the runtime.

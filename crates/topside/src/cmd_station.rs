@@ -18,7 +18,7 @@ use std::sync::atomic::Ordering;
 
 use anyhow::Context as _;
 use rov_control::ControlConfig;
-use rov_gui::{Backend as _, RealBackend, ScreenshotRequest, StationApp, Tab};
+use rov_gui::{RealBackend, ScreenshotRequest, StationApp, Tab};
 use rov_station::runtime::{Connection, Runtime, RuntimeConfig};
 
 /// The station's configuration file, relative to the working directory.
@@ -53,18 +53,16 @@ pub fn run_station(
     let recordings = record_to
         .clone()
         .unwrap_or_else(|| PathBuf::from("recordings"));
-    let mut backend = RealBackend::new(cfg.clone(), recordings);
+    let backend = RealBackend::new(cfg.clone(), recordings);
     let (live, error) = match Runtime::start(cfg.clone()) {
         Ok(h) => (Some(h), None),
         Err(e) => (None, Some(format!("cannot start the station: {e}"))),
     };
-    if let (Some(h), Some(_)) = (&live, &record_to) {
-        // The same file naming as the REC button.
-        let path = backend.recording_path();
-        eprintln!("recording to {}", path.display());
-        h.start_recording(&path);
-    }
-    let mut app = StationApp::new(Box::new(backend), live);
+    // Every connection records from its start (the app starts it, with the same file
+    // naming as the REC button), unless --no-record.
+    let mut app =
+        StationApp::new(Box::new(backend), None).with_record_on_connect(record_to.is_some());
+    app.connect_handle(live);
     if let Some(e) = error {
         eprintln!("warning: {e}");
         app.set_message(e);

@@ -160,6 +160,20 @@ impl Rig {
         self.run(FRAME_S);
     }
 
+    /// Clicks the first widget whose label contains `text`.
+    pub fn click_containing(&mut self, text: &str) {
+        let node = self.harness.query_all_by_label_contains(text).next();
+        let node = node.unwrap_or_else(|| panic!("no label containing {text:?}"));
+        node.hover();
+        self.harness.step();
+        self.harness
+            .query_all_by_label_contains(text)
+            .next()
+            .unwrap()
+            .click();
+        self.run(FRAME_S);
+    }
+
     /// Whether some widget's label contains `text`.
     pub fn has_label_containing(&self, text: &str) -> bool {
         self.harness

@@ -69,7 +69,19 @@ pub(crate) struct Engine {
     prev_armed: bool,
     overridden: (bool, bool),
     source_label: String,
+    /// Time of the last recorded message, ns: later messages are stamped no earlier, so
+    /// a recording is in time order even when a frame received before a tick is
+    /// handled after it.
+    last_record_ns: std::cell::Cell<u64>,
+    /// When the current hint was shown, µs.
+    hint_since_us: Option<u64>,
 }
+
+/// How long a hint stays in the view, µs.
+const HINT_US: u64 = 4_000_000;
+
+/// The hint after a short press of the arm button.
+pub const ARM_HINT: &str = "Hold to arm: keep the arm button (or Space) pressed for 1 s";
 
 fn axis_mode(m: AxisMode) -> Mode {
     match m {
@@ -154,14 +166,23 @@ impl Engine {
             prev_armed: false,
             overridden: (false, false),
             source_label,
+            last_record_ns: std::cell::Cell::new(0),
+            hint_since_us: None,
             cfg,
         })
     }
 
     fn record(&self, item: impl FnOnce(u64) -> RecordItem, now_us: u64) {
         if let Some(r) = &self.recorder {
-            r.send(item(r.t_ns(now_us)));
+            let t = r.t_ns(now_us).max(self.last_record_ns.get());
+            self.last_record_ns.set(t);
+            r.send(item(t));
         }
+    }
+
+    fn hint(&mut self, text: &str, now_us: u64) {
+        self.pipeline.view.hint = Some(text.to_string());
+        self.hint_since_us = Some(now_us);
     }
 
     /// Records `/truth/state` from the simulated vehicle's thread (live sim mode).
@@ -203,7 +224,12 @@ impl Engine {
     }
 
     fn refuse(&mut self, now_us: u64, what: &str, why: String) {
-        let text = format!("{what} refused: {why}");
+        // "cannot arm: ..." says it already.
+        let text = if why.starts_with("cannot") {
+            why
+        } else {
+            format!("{what} refused: {why}")
+        };
         self.pipeline.view.last_refusal = Some(text.clone());
         self.event(now_us, "refused", Severity::Warning, text);
     }
@@ -287,7 +313,12 @@ impl Engine {
                     Err(e) => self.refuse(now_us, &label, e.to_string()),
                 }
             }
-            RuntimeCommand::ArmButton(b) => self.arm.report(b, now_us),
+            RuntimeCommand::ArmButton(b) => {
+                self.arm.report(b, now_us);
+                if self.arm.take_released_early() {
+                    self.hint(ARM_HINT, now_us);
+                }
+            }
             RuntimeCommand::ToggleHold(axis) => {
                 let m = if self.core.holding(axis) {
                     ModeCommand::Disengage(axis)
@@ -346,6 +377,7 @@ impl Engine {
         };
         match Recorder::start(path, &info, now_us, self.cfg.record_blocking) {
             Ok(r) => {
+                self.last_record_ns.set(0);
                 self.recorder = Some(r);
                 let v = &mut self.pipeline.view.recording;
                 v.path = Some(path.to_path_buf());
@@ -354,7 +386,7 @@ impl Engine {
                     now_us,
                     "recording",
                     Severity::Info,
-                    format!("recording to {}", path.display()),
+                    format!("recording to {}", file_name(path)),
                 );
             }
             Err(e) => {
@@ -387,7 +419,7 @@ impl Engine {
                     Severity::Info,
                     format!(
                         "recording stopped: {} ({} messages)",
-                        path.display(),
+                        file_name(&path),
                         s.messages
                     ),
                 );
@@ -415,6 +447,11 @@ impl Engine {
             };
             self.pipeline.view.pilot.buttons.clone_from(&slot.buttons);
             self.arm_pad.report(slot.arm_held && fresh, now_us);
+            let early = self.arm_pad.take_released_early();
+            if early {
+                self.pipeline.view.hint = Some(ARM_HINT.to_string());
+                self.hint_since_us = Some(now_us);
+            }
             (slot.live && fresh).then_some(slot.sticks)
         };
         let kb = self
@@ -635,6 +672,15 @@ impl Engine {
 
         // View.
         self.pipeline.set_time(t_s);
+        self.pipeline
+            .sensor_lost(d.faults.depth_sensor_lost, d.faults.heading_sensor_lost);
+        if self
+            .hint_since_us
+            .is_some_and(|t| now_us.saturating_sub(t) > HINT_US)
+        {
+            self.hint_since_us = None;
+            self.pipeline.view.hint = None;
+        }
         let v = &mut self.pipeline.view;
         v.snapshot.armed = armed;
         v.snapshot.alarm = link.failsafe().alarm().map(|a| format!("{:?}", a.alarm));
@@ -697,6 +743,14 @@ impl Engine {
     pub fn finish(&mut self, now_us: u64) {
         self.stop_recording(now_us);
     }
+}
+
+/// The file name of a path (events name the file; the folder is in the settings).
+fn file_name(path: &std::path::Path) -> String {
+    path.file_name().map_or_else(
+        || path.display().to_string(),
+        |n| n.to_string_lossy().into_owned(),
+    )
 }
 
 /// `/truth/state` from the simulator's truth, in the units of the measured channels

@@ -165,6 +165,7 @@ pub struct ArmHold {
     since_us: Option<u64>,
     last_seen_us: u64,
     fired: bool,
+    released_early: bool,
 }
 
 impl ArmHold {
@@ -177,9 +178,18 @@ impl ArmHold {
             }
             self.last_seen_us = now_us;
         } else {
+            if self.since_us.is_some() && !self.fired {
+                self.released_early = true;
+            }
             self.since_us = None;
             self.fired = false;
         }
+    }
+
+    /// Whether the button was released before the hold completed since the last call
+    /// (the pilot pressed briefly: tell them to hold it).
+    pub fn take_released_early(&mut self) -> bool {
+        std::mem::take(&mut self.released_early)
     }
 
     /// Advances to `now_us`; returns true once per hold when the hold completes.

@@ -67,10 +67,12 @@ pub struct LinkView {
     pub rtt_p99_ms: Option<f64>,
     /// Exchanges per second.
     pub exchange_hz: Option<f64>,
-    /// Failed exchanges, % of exchanges (over the last interval).
+    /// Failed exchanges, % of exchanges over the last [`ERROR_WINDOW_S`].
     pub error_pct: Option<f64>,
     /// Age of the last good navigation frame, s.
     pub last_good_age_s: Option<f64>,
+    /// Failed exchanges in the last [`ERROR_WINDOW_S`].
+    pub errors_in_window: u64,
     /// Exchanges so far.
     pub exchanges: u64,
     /// Failed exchanges so far.
@@ -224,6 +226,24 @@ pub struct ReplayView {
     pub messages: usize,
     /// Warnings from opening the file.
     pub warnings: Vec<String>,
+    /// Every event of the session (arming, holds, alarms, notes, markers), in time
+    /// order: the replay's index.
+    pub index: Vec<IndexedEvent>,
+    /// One control tick of the recording, s (what Step moves).
+    pub tick_s: f64,
+}
+
+/// An event of a recorded session.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct IndexedEvent {
+    /// Time, s since the session start.
+    pub t_s: f64,
+    /// Kind (`armed`, `autopilot`, `note`, `marker`, an alarm key, ...).
+    pub kind: String,
+    /// Severity.
+    pub severity: Severity,
+    /// Text.
+    pub text: String,
 }
 
 /// Everything the GUI draws, latest value; see the module docs.
@@ -270,7 +290,33 @@ pub struct StationView {
     pub events: Vec<String>,
     /// The last command the station refused, with the reason.
     pub last_refusal: Option<String>,
+    /// Which instruments have no current data (see [`StaleView`]).
+    pub stale: StaleView,
+    /// Vertical speed, m/s, positive down (the observer's heave velocity).
+    pub heave_mps: Option<f64>,
+    /// A short hint for the pilot (e.g. after a too-short press of the arm button).
+    pub hint: Option<String>,
 }
+
+/// Which instruments have no current data. An instrument is stale when the frame it
+/// draws from is older than [`STALE_AFTER_S`] (or never came), or the controller flags
+/// its sensor as lost; the GUI then greys it and writes NO DATA over it instead of
+/// drawing the last value (or zero) as if it were valid.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
+pub struct StaleView {
+    /// Depth tape.
+    pub depth: bool,
+    /// Heading tape.
+    pub heading: bool,
+    /// Horizon and pitch glyph.
+    pub attitude: bool,
+}
+
+/// Instruments older than this are drawn as stale, s (ten navigation replies at 50 Hz).
+pub const STALE_AFTER_S: f64 = 0.2;
+
+/// The window over which the link's error rate is judged, s.
+pub const ERROR_WINDOW_S: f64 = 5.0;
 
 /// Events kept in [`StationView::events`].
 pub const EVENT_LINES: usize = 12;
@@ -282,6 +328,8 @@ pub struct Pipeline {
     pub view: StationView,
     last_nav_s: Option<f64>,
     last_link: Option<(f64, LinkRecord)>,
+    /// (t, exchanges, errors) of the link records of the last [`ERROR_WINDOW_S`].
+    link_window: std::collections::VecDeque<(f64, u64, u64)>,
     last_heading: Option<f64>,
     heading_sum_deg: f64,
     turns_zero_deg: f64,
@@ -307,8 +355,23 @@ impl Pipeline {
     /// Time advances to `t_s` (updates ages and the link colour).
     pub fn set_time(&mut self, t_s: f64) {
         self.view.snapshot.time_s = t_s;
-        self.view.link.last_good_age_s = self.last_nav_s.map(|t| (t_s - t).max(0.0));
+        let age = self.last_nav_s.map(|t| (t_s - t).max(0.0));
+        self.view.link.last_good_age_s = age;
         self.view.link.quality = quality(&self.view.link);
+        let old = age.is_none_or(|a| a > STALE_AFTER_S);
+        let s = &self.view.snapshot;
+        self.view.stale = StaleView {
+            depth: old || s.depth_m.is_none(),
+            heading: old || s.heading_deg.is_none(),
+            attitude: old || s.pitch_deg.is_none() || s.roll_deg.is_none(),
+        };
+    }
+
+    /// Marks instruments stale whose sensor the controller reports lost (after
+    /// [`Pipeline::set_time`]).
+    pub fn sensor_lost(&mut self, depth: bool, heading: bool) {
+        self.view.stale.depth |= depth;
+        self.view.stale.heading |= heading;
     }
 
     /// Observer heave velocity and yaw rate (for the predictor's anchor).
@@ -439,6 +502,7 @@ impl Pipeline {
         self.view.snapshot.heading_estimate_deg = finite(r.heading_deg);
         self.observer_w = finite(r.heave_mps);
         self.observer_r = finite(r.yaw_rate_dps).map(f64::to_radians);
+        self.view.heave_mps = self.observer_w;
     }
 
     /// Link statistics at `t_s`.
@@ -451,17 +515,40 @@ impl Pipeline {
         if let Some((t0, r0)) = &self.last_link {
             let dt = t_s - t0;
             if dt > 0.05 && r.exchanges >= r0.exchanges {
-                let dx = (r.exchanges - r0.exchanges) as f64;
-                l.exchange_hz = Some(dx / dt);
-                let de = r.total_errors.saturating_sub(r0.total_errors) as f64;
-                l.error_pct = Some(if dx > 0.0 {
-                    100.0 * de / dx
-                } else if de > 0.0 {
-                    100.0
-                } else {
-                    0.0
-                });
+                l.exchange_hz = Some((r.exchanges - r0.exchanges) as f64 / dt);
             }
+        }
+        // The error rate over the last ERROR_WINDOW_S: one failed exchange among the ~27
+        // of a 0.5 s interval is not a degraded link.
+        if self
+            .link_window
+            .back()
+            .is_some_and(|&(t, x, e)| t > t_s || x > r.exchanges || e > r.total_errors)
+        {
+            self.link_window.clear(); // a new link (or a replay seek)
+        }
+        self.link_window
+            .push_back((t_s, r.exchanges, r.total_errors));
+        while self
+            .link_window
+            .front()
+            .is_some_and(|&(t, _, _)| t_s - t > ERROR_WINDOW_S + 1e-9)
+        {
+            self.link_window.pop_front();
+        }
+        if let (Some(&(t0, x0, e0)), true) = (self.link_window.front(), self.link_window.len() > 1)
+            && t_s - t0 > 0.05
+        {
+            let dx = r.exchanges.saturating_sub(x0);
+            let de = r.total_errors.saturating_sub(e0);
+            l.error_pct = Some(if dx > 0 {
+                100.0 * de as f64 / dx as f64
+            } else if de > 0 {
+                100.0
+            } else {
+                0.0
+            });
+            l.errors_in_window = de;
         }
         l.exchanges = r.exchanges;
         l.errors = r.total_errors;
@@ -513,7 +600,9 @@ impl Pipeline {
 }
 
 /// The link colour: red when lost or no good frame for 1 s; amber when degraded, a good
-/// frame older than 0.25 s, more than 2 % errors or a median round trip over 100 ms.
+/// frame older than 0.25 s, a sustained error rate (more than 2 % of the exchanges of
+/// the last [`ERROR_WINDOW_S`] failed, and at least 3 of them) or a median round trip
+/// over 100 ms.
 #[must_use]
 pub fn quality(l: &LinkView) -> Quality {
     let age = l.last_good_age_s.unwrap_or(f64::INFINITY);
@@ -522,7 +611,8 @@ pub fn quality(l: &LinkView) -> Quality {
     }
     let err = l.error_pct.unwrap_or(0.0);
     let rtt = l.rtt_p50_ms.unwrap_or(0.0);
-    if l.health == "degraded" || age > 0.25 || err > 2.0 || rtt > 100.0 {
+    let sustained = err > 2.0 && l.errors_in_window >= 3;
+    if l.health == "degraded" || age > 0.25 || sustained || rtt > 100.0 {
         Quality::Amber
     } else {
         Quality::Green
@@ -578,11 +668,22 @@ mod tests {
         assert_eq!(p.view.link.exchange_hz, Some(50.0));
         assert_eq!(p.view.link.error_pct, Some(10.0));
         assert_eq!(p.view.link.quality, Quality::Amber);
+        // The errors count for ERROR_WINDOW_S: still amber a second later, green once
+        // they have left the window.
         p.link(2.0, &r(100, 5));
         p.nav(2.0, &NavRecord::default());
         p.set_time(2.0);
+        assert_eq!(p.view.link.error_pct, Some(5.0));
+        assert_eq!(p.view.link.quality, Quality::Amber);
+        for k in 3..=7 {
+            let t = f64::from(k);
+            p.link(t, &r(50 * k as u64, 5));
+            p.nav(t, &NavRecord::default());
+            p.set_time(t);
+        }
+        assert_eq!(p.view.link.error_pct, Some(0.0));
         assert_eq!(p.view.link.quality, Quality::Green);
-        p.set_time(3.5);
+        p.set_time(8.5);
         assert_eq!(p.view.link.quality, Quality::Red);
     }
 
