@@ -83,9 +83,10 @@ pub fn clipped_widgets(
                 // Clipped only vertically by a scroll viewport it belongs to (scrolled
                 // out of view, on purpose).
                 let scrolled = !cut_x
-                    && audit.scroll_viewports.iter().any(|s| {
-                        s.min.x - tolerance <= r.min.x && r.max.x <= s.max.x + tolerance
-                    });
+                    && audit
+                        .scroll_viewports
+                        .iter()
+                        .any(|s| s.min.x - tolerance <= r.min.x && r.max.x <= s.max.x + tolerance);
                 if scrolled {
                     continue;
                 }

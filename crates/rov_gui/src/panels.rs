@@ -228,6 +228,34 @@ pub(crate) fn health_panel(app: &StationApp, ui: &mut Ui) {
                 .monospace(),
             );
             ui.end_row();
+            let t = &v.tick;
+            let late_ms = t.p99_late_us as f64 * 1e-3;
+            let tick_color = if t.missed > 0 || t.watchdog_trips > 0 {
+                theme::RED
+            } else if late_ms > 5.0 {
+                theme::AMBER
+            } else if t.ticks == 0 {
+                theme::DIM
+            } else {
+                theme::GREEN
+            };
+            dot_label(ui, tick_color, "Control loop");
+            ui.label(
+                RichText::new(format!("missed {}  late p99 {late_ms:.1} ms", t.missed)).monospace(),
+            )
+            .on_hover_text(format!(
+                "{} ticks, late max {:.1} ms, watchdog trips {}; a tick is missed when it \
+                 starts 20 ms or more late. Thread priority: {}",
+                t.ticks,
+                t.max_late_us as f64 * 1e-3,
+                t.watchdog_trips,
+                if v.control_priority.is_empty() {
+                    "-"
+                } else {
+                    v.control_priority.as_str()
+                }
+            ));
+            ui.end_row();
             dot_label(ui, level(h.power_w, |x| x > 250.0, |_| false), "Power");
             ui.label(
                 RichText::new(format!(

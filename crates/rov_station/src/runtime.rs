@@ -51,6 +51,7 @@ pub mod gamepad;
 pub mod history;
 mod live;
 pub mod predict;
+pub mod priority;
 pub mod recorder;
 pub mod replay;
 pub mod shaping;
@@ -281,6 +282,8 @@ pub(crate) struct Shared {
     pub commands_dropped: AtomicU64,
     pub running: AtomicBool,
     pub clock: MonoClock,
+    /// What each real-time thread got (thread name, grant).
+    pub priorities: Mutex<Vec<(String, priority::Granted)>>,
 }
 
 impl Shared {
@@ -298,6 +301,7 @@ impl Shared {
             commands_dropped: AtomicU64::new(0),
             running: AtomicBool::new(true),
             clock,
+            priorities: Mutex::new(Vec::new()),
         }
     }
 }
@@ -391,6 +395,12 @@ impl StationHandle {
         s
     }
 
+    /// The priority each real-time thread got (thread name, grant).
+    #[must_use]
+    pub fn priorities(&self) -> Vec<(String, priority::Granted)> {
+        lock(&self.shared.priorities).clone()
+    }
+
     /// Wall timestamps of the last ticks, µs of [`StationHandle::now_us`]'s clock.
     #[must_use]
     pub fn tick_times(&self) -> Vec<u64> {
@@ -471,6 +481,23 @@ impl Runtime {
 
 pub(crate) fn command_channel() -> (SyncSender<RuntimeCommand>, Receiver<RuntimeCommand>) {
     sync_channel(COMMAND_CAPACITY)
+}
+
+/// Spawns a real-time thread: it raises its own priority first (see [`priority`]) and
+/// records what it got.
+pub(crate) fn spawn_raised(
+    name: &str,
+    rt: u8,
+    shared: &Arc<Shared>,
+    f: impl FnOnce() + Send + 'static,
+) -> Result<JoinHandle<()>, RuntimeError> {
+    let shared = Arc::clone(shared);
+    let label = name.to_string();
+    spawn_named(name, move || {
+        let granted = priority::raise_current(rt);
+        lock(&shared.priorities).push((label, granted));
+        f();
+    })
 }
 
 pub(crate) fn spawn_named(

@@ -723,6 +723,12 @@ impl Engine {
         if let Some(t) = tick {
             self.pipeline.view.tick = t;
         }
+        if self.pipeline.view.control_priority.is_empty()
+            && let Some(p) = try_lock(&self.shared.priorities)
+            && let Some((_, g)) = p.iter().find(|(n, _)| n == "station-control")
+        {
+            self.pipeline.view.control_priority = g.to_string();
+        }
         self.pipeline.view.seq += 1;
         if let Some(mut v) = try_lock(&self.shared.view) {
             v.clone_from(&self.pipeline.view);

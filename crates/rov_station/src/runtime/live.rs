@@ -15,10 +15,11 @@ use rov_vehicle::runner::TruthTap;
 use rov_vehicle::{RunnerConfig, Vehicle, VehicleConfig, VehicleRunner};
 
 use crate::runtime::engine::{Engine, Followup};
+use crate::runtime::priority::{RT_CONTROL, RT_LINK, RT_WATCHDOG};
 use crate::runtime::view::Source;
 use crate::runtime::{
     Connection, RuntimeCommand, RuntimeConfig, RuntimeError, Shared, StationHandle,
-    command_channel, lock, spawn_named,
+    command_channel, lock, spawn_named, spawn_raised,
 };
 
 /// Byte chunks queued from the rx thread to the control thread.
@@ -76,22 +77,37 @@ pub(crate) fn start(cfg: RuntimeConfig, models: ModelSet) -> Result<StationHandl
     let mut threads = Vec::new();
     {
         let shared = Arc::clone(&shared);
-        threads.push(spawn_named("station-rx", move || {
-            rx_loop(source_half, &rx_tx, &shared);
-        })?);
+        threads.push(spawn_raised(
+            "station-rx",
+            RT_LINK,
+            &shared.clone(),
+            move || {
+                rx_loop(source_half, &rx_tx, &shared);
+            },
+        )?);
     }
     {
         let shared = Arc::clone(&shared);
-        threads.push(spawn_named("station-tx", move || {
-            tx_loop(sink_half, &tx_rx, &shared);
-        })?);
+        threads.push(spawn_raised(
+            "station-tx",
+            RT_LINK,
+            &shared.clone(),
+            move || {
+                tx_loop(sink_half, &tx_rx, &shared);
+            },
+        )?);
     }
     {
         let shared = Arc::clone(&shared);
         let tx = tx_tx.clone();
-        threads.push(spawn_named("station-watchdog", move || {
-            watchdog_loop(&shared, &tx, node, period_us);
-        })?);
+        threads.push(spawn_raised(
+            "station-watchdog",
+            RT_WATCHDOG,
+            &shared.clone(),
+            move || {
+                watchdog_loop(&shared, &tx, node, period_us);
+            },
+        )?);
     }
     #[cfg(feature = "gamepad")]
     if cfg.gamepad {
@@ -103,13 +119,18 @@ pub(crate) fn start(cfg: RuntimeConfig, models: ModelSet) -> Result<StationHandl
     }
     {
         let shared = Arc::clone(&shared);
-        threads.push(spawn_named("station-control", move || {
-            control_loop(engine, link, &rx_rx, &tx_tx, &cmd_rx, &shared, period_us);
-            shared.running.store(false, Ordering::Relaxed);
-            if let Some(v) = vehicle {
-                let _ = v.stop();
-            }
-        })?);
+        threads.push(spawn_raised(
+            "station-control",
+            RT_CONTROL,
+            &shared.clone(),
+            move || {
+                control_loop(engine, link, &rx_rx, &tx_tx, &cmd_rx, &shared, period_us);
+                shared.running.store(false, Ordering::Relaxed);
+                if let Some(v) = vehicle {
+                    let _ = v.stop();
+                }
+            },
+        )?);
     }
     Ok(StationHandle::new(shared, cmd_tx, threads))
 }
@@ -313,8 +334,8 @@ fn control_loop(
                 t.record(next_tick, now);
                 next_tick += period_us;
                 if now >= next_tick {
-                    // More than a period late: skip the lost deadlines (counted) and
-                    // keep the grid t0 + k·P.
+                    // More than a period late: skip the lost deadlines (counted as
+                    // missed: they never start) and keep the grid t0 + k·P.
                     let behind = (now - next_tick) / period_us + 1;
                     t.add_missed(behind);
                     next_tick += behind * period_us;

@@ -296,6 +296,8 @@ pub struct StationView {
     pub heave_mps: Option<f64>,
     /// A short hint for the pilot (e.g. after a too-short press of the arm button).
     pub hint: Option<String>,
+    /// The priority the control thread got ("real-time FIFO 60", "nice -10", ...).
+    pub control_priority: String,
 }
 
 /// Which instruments have no current data. An instrument is stale when the frame it
