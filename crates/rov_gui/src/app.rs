@@ -64,15 +64,18 @@ pub enum Tab {
     Lab,
     /// Vehicle connection.
     Connection,
+    /// Units, port, recordings, alarm limits.
+    Settings,
 }
 
 impl Tab {
-    const ALL: [(Tab, &'static str); 5] = [
+    const ALL: [(Tab, &'static str); 6] = [
         (Tab::Fly, "Fly"),
         (Tab::Plots, "Plots"),
         (Tab::Replay, "Replay"),
         (Tab::Lab, "Model lab"),
         (Tab::Connection, "Connection"),
+        (Tab::Settings, "Settings"),
     ];
 }
 
@@ -156,6 +159,12 @@ pub struct StationApp {
     pub(crate) instruments_only: bool,
     /// What the last frame laid out (for the clipping checks).
     pub(crate) layout: crate::layout::LayoutAudit,
+    /// The station configuration file the Settings tab saves to.
+    pub(crate) config_path: Option<PathBuf>,
+    /// The alarm limits being edited.
+    pub(crate) alarm_limits: rov_station::runtime::AlarmConfig,
+    /// The pilot's settings.
+    pub(crate) station: rov_station::runtime::settings::StationSettings,
 }
 
 impl std::fmt::Debug for StationApp {
@@ -201,6 +210,9 @@ impl StationApp {
             main_view: None,
             instruments_only: false,
             layout: crate::layout::LayoutAudit::default(),
+            config_path: None,
+            alarm_limits: rov_station::runtime::AlarmConfig::default(),
+            station: rov_station::runtime::settings::StationSettings::default(),
         };
         app.set_live(live);
         app
@@ -211,6 +223,27 @@ impl StationApp {
     pub fn with_record_on_connect(mut self, on: bool) -> Self {
         self.record_on_connect = on;
         self
+    }
+
+    /// The settings from the station configuration `path` (the Settings tab edits them
+    /// and saves them there).
+    #[must_use]
+    pub fn with_settings(
+        mut self,
+        path: PathBuf,
+        alarms: rov_station::runtime::AlarmConfig,
+        station: rov_station::runtime::settings::StationSettings,
+    ) -> Self {
+        self.config_path = Some(path);
+        self.alarm_limits = alarms;
+        self.station = station;
+        self
+    }
+
+    /// The pilot's settings as edited.
+    #[must_use]
+    pub fn station_settings(&self) -> &rov_station::runtime::settings::StationSettings {
+        &self.station
     }
 
     /// Sets what fills the Fly tab's centre (the camera picture); the instruments are
@@ -435,6 +468,7 @@ impl StationApp {
             Tab::Replay => crate::replay::replay_tab(self, ui),
             Tab::Lab => crate::lab::lab_tab(self, ui),
             Tab::Connection => crate::connection::connection_tab(self, ui),
+            Tab::Settings => crate::settings::settings_tab(self, ui),
         });
         self.screenshot_step(ui.ctx());
         ui.ctx()
@@ -607,37 +641,53 @@ impl StationApp {
             });
     }
 
+    /// The alarm banner under the top bar: red while an unacknowledged alarm is listed,
+    /// amber for warnings only, brown once everything is acknowledged; each entry says
+    /// what, how serious, the value and the limit crossed, with its ACK button.
     fn alarm_bar(&mut self, ui: &mut Ui) {
+        use rov_station::runtime::AlarmLevel;
         let alarms = self.live_view.alarms.clone();
         let failsafe = self.live_view.snapshot.alarm.clone();
         if alarms.is_empty() && failsafe.is_none() {
             return;
         }
-        let unacked = alarms.iter().any(|a| !a.acknowledged);
-        let fill = if unacked {
-            theme::RED
+        let unacked = |lvl: AlarmLevel| alarms.iter().any(|a| !a.acknowledged && a.level == lvl);
+        let (fill, title) = if unacked(AlarmLevel::Alarm) || failsafe.is_some() {
+            (theme::RED, "ALARM")
+        } else if unacked(AlarmLevel::Warning) {
+            (Color32::from_rgb(200, 120, 0), "WARNING")
         } else {
-            Color32::from_rgb(110, 70, 10)
+            (Color32::from_rgb(90, 60, 15), "ACKNOWLEDGED")
         };
         egui::Panel::top("alarm_bar")
             .frame(egui::Frame::new().fill(fill).inner_margin(6.0))
             .show(ui, |ui| {
                 ui.horizontal_wrapped(|ui| {
                     ui.label(
-                        RichText::new("ALARM")
+                        RichText::new(title)
                             .size(20.0)
                             .strong()
                             .color(Color32::WHITE),
                     );
                     for a in &alarms {
                         let state = if a.active { "" } else { " (cleared)" };
-                        let text = format!("{}{state}", a.kind.text());
+                        let level = match a.level {
+                            AlarmLevel::Alarm => "",
+                            AlarmLevel::Warning => " warning",
+                        };
+                        let unit = a.kind.unit();
+                        let value = match (a.value, a.limit) {
+                            (Some(v), Some(l)) => format!(" {v:.1} {unit} (limit {l:.1})"),
+                            (Some(v), None) => format!(" {v:.1} {unit}"),
+                            _ => String::new(),
+                        };
+                        let text = format!("{}{level}{value}{state}", a.kind.text());
                         let color = if a.acknowledged {
-                            theme::AMBER
+                            Color32::from_gray(200)
                         } else {
                             Color32::WHITE
                         };
-                        ui.label(RichText::new(text).size(18.0).strong().color(color));
+                        ui.label(RichText::new(text).size(17.0).strong().color(color));
                         if !a.acknowledged && ui.button("ACK").clicked() {
                             self.live_cmd(RuntimeCommand::AckAlarm(Some(a.kind)));
                         }

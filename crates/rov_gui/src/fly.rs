@@ -76,6 +76,7 @@ fn depth_tape(app: &mut StationApp, ui: &mut Ui, v: &StationView, size: egui::Ve
         half_range_m: 5.0,
         heave_mps: v.heave_mps,
         stale: v.stale.depth,
+        feet: app.station.depth_unit == rov_station::runtime::settings::DepthUnit::Feet,
     };
     match tape.show(ui, size, app.depth_drag) {
         Some(TapeAction::Dragging(d)) if !replay => app.depth_drag = Some(d),

@@ -87,6 +87,8 @@ pub struct DepthTape {
     pub heave_mps: Option<f64>,
     /// No current data: drawn dimmed with NO DATA.
     pub stale: bool,
+    /// Show feet instead of metres.
+    pub feet: bool,
 }
 
 /// The vertical-speed trend looks this far ahead, s.
@@ -128,10 +130,16 @@ impl DepthTape {
             pos2(rect.max.x - bar_w - 4.0, tape.min.y),
             pos2(rect.max.x - 4.0, tape.max.y),
         );
+        // Display unit: k display units per metre.
+        let (k, unit) = if self.feet {
+            (crate::settings::FT_PER_M, "ft")
+        } else {
+            (1.0, "m")
+        };
         painter.text(
             pos2(tape.center().x, rect.min.y + 11.0),
             Align2::CENTER_CENTER,
-            "DEPTH m",
+            format!("DEPTH {unit}"),
             theme::small(),
             theme::SCALE,
         );
@@ -148,13 +156,15 @@ impl DepthTape {
         let y_of = |d: f64| tape.center().y + ((d - centre_m) as f32) * px_per_m;
         let d_of = |y: f32| centre_m + f64::from((y - tape.center().y) / px_per_m);
         let clip = painter.with_clip_rect(tape);
-        // Ticks every 0.5 m, labels every metre.
-        let first = ((centre_m - half) * 2.0).floor() as i64;
-        let last = ((centre_m + half) * 2.0).ceil() as i64;
-        for k in first..=last {
-            let d = k as f64 * 0.5;
+        // Ticks every 0.5 m (labels every metre), or every 2 ft (labels every 4 ft).
+        let step = if self.feet { 2.0 } else { 0.5 };
+        let first = ((centre_m - half) * k / step).floor() as i64;
+        let last = ((centre_m + half) * k / step).ceil() as i64;
+        for i in first..=last {
+            let shown = i as f64 * step;
+            let d = shown / k;
             let y = y_of(d);
-            let major = k % 2 == 0;
+            let major = i % 2 == 0;
             let len = if major { 14.0 } else { 8.0 };
             clip.line_segment(
                 [pos2(tape.min.x, y), pos2(tape.min.x + len, y)],
@@ -164,7 +174,7 @@ impl DepthTape {
                 clip.text(
                     pos2(tape.min.x + 18.0, y),
                     Align2::LEFT_CENTER,
-                    format!("{d:.0}"),
+                    format!("{shown:.0}"),
                     theme::small(),
                     theme::SCALE,
                 );
@@ -210,7 +220,11 @@ impl DepthTape {
         painter.text(
             boxr.center(),
             Align2::CENTER_CENTER,
-            fmt_opt(self.depth_m.filter(|_| !self.stale), 2, ""),
+            fmt_opt(
+                self.depth_m.filter(|_| !self.stale).map(|d| d * k),
+                if self.feet { 1 } else { 2 },
+                "",
+            ),
             theme::big(),
             theme::VALUE,
         );
@@ -259,7 +273,7 @@ impl DepthTape {
             painter.text(
                 pos2(x - 14.0, y - 9.0),
                 Align2::RIGHT_BOTTOM,
-                format!("{sp:.1}"),
+                format!("{:.1}", sp * k),
                 theme::small(),
                 color,
             );

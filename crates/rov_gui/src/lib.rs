@@ -25,6 +25,7 @@ mod panels;
 pub mod plots;
 mod replay;
 pub mod screenshot;
+pub mod settings;
 pub mod theme;
 
 use std::path::{Path, PathBuf};

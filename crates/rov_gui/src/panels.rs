@@ -61,7 +61,7 @@ fn axis_row(app: &mut StationApp, ui: &mut Ui, axis: Axis, v: &StationView, repl
             mode_cmd(app, m);
         }
         let sp = match axis {
-            Axis::Depth => av.setpoint.map_or("---".into(), |x| format!("{x:.2} m")),
+            Axis::Depth => crate::settings::depth_text(av.setpoint, app.station.depth_unit, 2),
             Axis::Heading => av.setpoint.map_or("---".into(), |x| {
                 format!("{:03}°", (x.round() as i64).rem_euclid(360))
             }),
@@ -101,8 +101,9 @@ fn axis_row(app: &mut StationApp, ui: &mut Ui, axis: Axis, v: &StationView, repl
                     );
                 }
             }
+            let feet = app.station.depth_unit == rov_station::runtime::settings::DepthUnit::Feet;
             let (text, hint) = match axis {
-                Axis::Depth => (&mut app.depth_text, "m"),
+                Axis::Depth => (&mut app.depth_text, if feet { "ft" } else { "m" }),
                 Axis::Heading => (&mut app.heading_text, "deg"),
             };
             let edit = egui::TextEdit::singleline(text)
@@ -122,7 +123,13 @@ fn axis_row(app: &mut StationApp, ui: &mut Ui, axis: Axis, v: &StationView, repl
                         mode_cmd(
                             app,
                             match axis {
-                                Axis::Depth => ModeCommand::SetDepth { depth_m: x },
+                                Axis::Depth => ModeCommand::SetDepth {
+                                    depth_m: if feet {
+                                        x / crate::settings::FT_PER_M
+                                    } else {
+                                        x
+                                    },
+                                },
                                 Axis::Heading => ModeCommand::SetHeading { heading_deg: x },
                             },
                         );
@@ -188,6 +195,8 @@ fn level(x: Option<f64>, warn: impl Fn(f64) -> bool, alarm: impl Fn(f64) -> bool
 pub(crate) fn health_panel(app: &StationApp, ui: &mut Ui) {
     let v = app.shown().0;
     let h = &v.health;
+    let lim = &v.alarm_limits;
+    let tu = app.station.temp_unit;
     group_title(ui, "HEALTH");
     egui::Grid::new("health")
         .num_columns(2)
@@ -196,8 +205,16 @@ pub(crate) fn health_panel(app: &StationApp, ui: &mut Ui) {
             let rate = h
                 .humidity_rate_pct_per_min
                 .map_or(String::new(), |r| format!("  ({r:+.1} %/min)"));
-            let hc = level(h.humidity_pct, |x| x > 45.0, |x| x > 60.0);
-            let rc = level(h.humidity_rate_pct_per_min, |x| x > 0.5, |x| x > 2.0);
+            let hc = level(
+                h.humidity_pct,
+                |x| x >= lim.humidity_pct.warn,
+                |x| x >= lim.humidity_pct.alarm,
+            );
+            let rc = level(
+                h.humidity_rate_pct_per_min,
+                |x| x >= lim.humidity_rise_pct_per_min.warn,
+                |x| x >= lim.humidity_rise_pct_per_min.alarm,
+            );
             let color = if rc == theme::RED || hc == theme::RED {
                 theme::RED
             } else if rc == theme::AMBER || hc == theme::AMBER {
@@ -213,12 +230,45 @@ pub(crate) fn health_panel(app: &StationApp, ui: &mut Ui) {
                 level(h.water_temp_c, |x| x > 35.0, |_| false),
                 "Water temp",
             );
-            ui.label(RichText::new(opt(h.water_temp_c, 1, "°C")).monospace());
+            ui.label(RichText::new(crate::settings::temp_text(h.water_temp_c, tu)).monospace());
             ui.end_row();
-            dot_label(ui, level(h.tether_v, |x| x < 66.0, |x| x < 60.0), "Tether");
+            dot_label(
+                ui,
+                level(
+                    h.internal_temp_c,
+                    |x| x >= lim.internal_temp_c.warn,
+                    |x| x >= lim.internal_temp_c.alarm,
+                ),
+                "Internal temp",
+            );
+            ui.label(
+                RichText::new(h.internal_temp_c.map_or_else(
+                    || "not reported".into(),
+                    |t| crate::settings::temp_text(Some(t), tu),
+                ))
+                .monospace(),
+            );
+            ui.end_row();
+            dot_label(
+                ui,
+                level(
+                    h.tether_v,
+                    |x| x <= lim.tether_v.warn,
+                    |x| x <= lim.tether_v.alarm,
+                ),
+                "Tether",
+            );
             ui.label(RichText::new(opt(h.tether_v, 1, "V")).monospace());
             ui.end_row();
-            dot_label(ui, level(h.rail_v, |x| x < 11.5, |x| x < 11.0), "12 V rail");
+            dot_label(
+                ui,
+                level(
+                    h.rail_v,
+                    |x| x <= lim.rail_12v_v.warn,
+                    |x| x <= lim.rail_12v_v.alarm,
+                ),
+                "12 V rail",
+            );
             ui.label(
                 RichText::new(format!(
                     "{}  {}",

@@ -54,6 +54,7 @@ pub mod predict;
 pub mod priority;
 pub mod recorder;
 pub mod replay;
+pub mod settings;
 pub mod shaping;
 mod sim;
 pub mod timing;
@@ -62,9 +63,10 @@ pub mod view;
 #[cfg(test)]
 mod tests;
 
-pub use alarms::{AlarmConfig, AlarmKind, AlarmState};
+pub use alarms::{AlarmConfig, AlarmKind, AlarmLevel, AlarmState, Limit};
 pub use history::{Channel, History, HistorySample, decimate_min_max};
 pub use replay::VirtualReplay;
+pub use rov_vehicle::FaultConfig as SimFaults;
 pub use shaping::{AxisShaping, GAIN_STEPS_PCT, Gain, StickShaping};
 pub use sim::VirtualStation;
 pub use timing::TickStats;
@@ -104,6 +106,9 @@ pub struct RuntimeConfig {
     pub gamepad: bool,
     /// Seed of the simulated vehicle's sensor noise.
     pub sim_seed: u64,
+    /// Faults the simulated vehicle injects on its link (none by default: a clean
+    /// link; for training and tests).
+    pub sim_faults: rov_vehicle::FaultConfig,
     /// Keyboard sticks older than this count as released, µs.
     pub keyboard_timeout_us: u64,
     /// Recording waits for the writer instead of dropping messages when its queue is
@@ -125,6 +130,7 @@ impl Default for RuntimeConfig {
             alarms: AlarmConfig::default(),
             gamepad: true,
             sim_seed: 1,
+            sim_faults: rov_vehicle::FaultConfig::none(),
             keyboard_timeout_us: 300_000,
             record_blocking: false,
         }
@@ -204,6 +210,8 @@ pub enum RuntimeCommand {
     Shaping(StickShaping),
     /// Acknowledge an alarm (`None`: all).
     AckAlarm(Option<AlarmKind>),
+    /// New alarm limits (the pilot's settings).
+    AlarmLimits(AlarmConfig),
     /// Zero the tether turns counter.
     ResetTurns,
     /// Start recording to a file.

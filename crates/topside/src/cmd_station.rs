@@ -19,6 +19,7 @@ use std::sync::atomic::Ordering;
 use anyhow::Context as _;
 use rov_control::ControlConfig;
 use rov_gui::{RealBackend, ScreenshotRequest, StationApp, Tab};
+use rov_station::runtime::settings::{self, StationSettings};
 use rov_station::runtime::{Connection, Runtime, RuntimeConfig};
 
 /// The station's configuration file, relative to the working directory.
@@ -27,20 +28,35 @@ const CONFIG_PATH: &str = "config/station.toml";
 /// The runtime settings: `config/station.toml` when it exists (defaults otherwise), on
 /// the given port or the simulator. Shared with `topside record`.
 pub fn config(port: Option<String>) -> anyhow::Result<RuntimeConfig> {
-    let (control, text) = match std::fs::read_to_string(CONFIG_PATH) {
-        Ok(text) => (
-            ControlConfig::from_toml_str(&text, CONFIG_PATH)
-                .with_context(|| format!("reading {CONFIG_PATH}"))?,
-            text,
-        ),
-        Err(_) => (ControlConfig::default(), String::new()),
+    Ok(config_and_settings(port)?.0)
+}
+
+/// [`config`] and the pilot's `[station]` settings.
+pub fn config_and_settings(
+    port: Option<String>,
+) -> anyhow::Result<(RuntimeConfig, StationSettings)> {
+    let text = std::fs::read_to_string(CONFIG_PATH).unwrap_or_default();
+    let control = if text.is_empty() {
+        ControlConfig::default()
+    } else {
+        ControlConfig::from_toml_str(&text, CONFIG_PATH)
+            .with_context(|| format!("reading {CONFIG_PATH}"))?
     };
-    Ok(RuntimeConfig {
-        connection: port.map_or(Connection::Sim, Connection::Serial),
-        control,
-        config_toml: text,
-        ..RuntimeConfig::default()
-    })
+    let (alarms, station) =
+        settings::load(&text, CONFIG_PATH).with_context(|| format!("reading {CONFIG_PATH}"))?;
+    let mut sim_faults = rov_station::runtime::SimFaults::none();
+    sim_faults.drop_reply = station.sim_link_errors_pct / 100.0;
+    Ok((
+        RuntimeConfig {
+            connection: port.map_or(Connection::Sim, Connection::Serial),
+            control,
+            config_toml: text,
+            alarms,
+            sim_faults,
+            ..RuntimeConfig::default()
+        },
+        station,
+    ))
 }
 
 /// Opens the station window; see the module docs.
@@ -49,7 +65,11 @@ pub fn run_station(
     record_to: Option<PathBuf>,
     screenshot: Option<(PathBuf, f64)>,
 ) -> anyhow::Result<ExitCode> {
-    let cfg = config(port)?;
+    let explicit_port = port.is_some();
+    let (mut cfg, station) = config_and_settings(port)?;
+    if !explicit_port && !station.serial_port.trim().is_empty() {
+        cfg.connection = Connection::Serial(station.serial_port.trim().to_string());
+    }
     let recordings = record_to
         .clone()
         .unwrap_or_else(|| PathBuf::from("recordings"));
@@ -60,8 +80,9 @@ pub fn run_station(
     };
     // Every connection records from its start (the app starts it, with the same file
     // naming as the REC button), unless --no-record.
-    let mut app =
-        StationApp::new(Box::new(backend), None).with_record_on_connect(record_to.is_some());
+    let mut app = StationApp::new(Box::new(backend), None)
+        .with_record_on_connect(record_to.is_some() && station.record_on_connect)
+        .with_settings(PathBuf::from(CONFIG_PATH), cfg.alarms, station);
     app.connect_handle(live);
     if let Some(e) = error {
         eprintln!("warning: {e}");

@@ -14,7 +14,7 @@ use rov_session::{
 };
 
 use crate::core::{StationCommand, StationCore};
-use crate::runtime::alarms::{AlarmChange, AlarmInputs, Alarms};
+use crate::runtime::alarms::{AlarmChange, AlarmInputs, AlarmLevel, Alarms};
 use crate::runtime::history::HistorySample;
 use crate::runtime::predict::{Anchor, Predictor};
 use crate::runtime::recorder::{RecordItem, Recorder};
@@ -114,6 +114,14 @@ fn nav_record(t: &Telemetry) -> NavRecord {
     }
 }
 
+/// The internal temperature the vehicle reports, °C: the CPU board's sensor (CSR 0x82,
+/// marked reserved in the Pro 4's map; read as whole °C, to be checked on hardware).
+/// 0 means not reported (the simulated vehicle leaves it at 0).
+fn internal_temp_c(s: StatusTelemetry) -> Option<f64> {
+    let raw = s.raw.internal_temp_cpu_raw;
+    (raw != 0).then(|| f64::from(raw))
+}
+
 fn status_record(s: &StatusTelemetry) -> StatusRecord {
     StatusRecord {
         water_temp_c: s.water_temp_c,
@@ -137,6 +145,8 @@ impl Engine {
             Source::Serial(p) => format!("serial:{p}"),
             _ => "sim".to_string(),
         };
+        let mut pipeline = Pipeline::new(source);
+        pipeline.view.alarm_limits = cfg.alarms;
         Ok(Self {
             core,
             models,
@@ -144,7 +154,7 @@ impl Engine {
             predictor: Predictor::default(),
             shaping: cfg.shaping,
             gain: Gain::with_index(cfg.gain_index),
-            pipeline: Pipeline::new(source),
+            pipeline,
             keyboard: None,
             arm: ArmHold::default(),
             arm_pad: ArmHold::default(),
@@ -257,6 +267,7 @@ impl Engine {
             LinkEvent::Status(s) => {
                 let r = status_record(s);
                 self.pipeline.status(&r);
+                self.pipeline.view.health.internal_temp_c = internal_temp_c(*s);
                 self.last_status = Some(*s);
                 self.record(|ts| RecordItem::Status(ts, r), now_us);
             }
@@ -351,7 +362,17 @@ impl Engine {
             RuntimeCommand::Shaping(s) => self.shaping = s,
             RuntimeCommand::AckAlarm(k) => {
                 self.alarms.acknowledge(k);
-                self.pipeline.view.alarms = self.alarms.list();
+                self.alarms.list_into(&mut self.pipeline.view.alarms);
+            }
+            RuntimeCommand::AlarmLimits(c) => {
+                self.alarms.set_config(c);
+                self.pipeline.view.alarm_limits = c;
+                self.event(
+                    now_us,
+                    "settings",
+                    Severity::Info,
+                    "alarm limits changed".into(),
+                );
             }
             RuntimeCommand::ResetTurns => self.pipeline.reset_turns(),
             RuntimeCommand::StartRecording(path) => self.start_recording(&path, now_us),
@@ -630,8 +651,11 @@ impl Engine {
             link_lost: link.health() == Health::Lost,
             ever_connected: self.ever_connected,
             humidity_pct: self.pipeline.view.health.humidity_pct,
+            depth_m: self.pipeline.view.snapshot.depth_m,
+            turns: Some(self.pipeline.view.turns),
             tether_v: s.map(|s| s.tether_v),
             rail_v: s.map(|s| s.rail_12v_v),
+            internal_temp_c: s.and_then(internal_temp_c),
             nav_age_s: self
                 .last_nav_us
                 .map(|t| now_us.saturating_sub(t) as f64 * 1e-6),
@@ -640,8 +664,12 @@ impl Engine {
         };
         for change in self.alarms.evaluate(t_s, &inputs) {
             match change {
-                AlarmChange::Raised(k) => {
-                    self.event(now_us, k.key(), Severity::Alarm, k.text().to_string());
+                AlarmChange::Raised(k, level) => {
+                    let (sev, what) = match level {
+                        AlarmLevel::Alarm => (Severity::Alarm, "ALARM"),
+                        AlarmLevel::Warning => (Severity::Warning, "warning"),
+                    };
+                    self.event(now_us, k.key(), sev, format!("{} ({what})", k.text()));
                 }
                 AlarmChange::Cleared(k) => self.event(
                     now_us,
@@ -693,7 +721,7 @@ impl Engine {
             v.heading.overridden = false;
         }
         v.health.humidity_rate_pct_per_min = self.alarms.humidity_rate_pct_per_min();
-        v.alarms = self.alarms.list();
+        self.alarms.list_into(&mut v.alarms);
         v.pilot.raw = raw.into();
         v.pilot.shaped = shaped.into();
         v.pilot.gain_pct = self.gain.pct();

@@ -50,7 +50,13 @@ pub(crate) fn start(cfg: RuntimeConfig, models: ModelSet) -> Result<StationHandl
         match &cfg.connection {
             Connection::Sim => {
                 let (station_end, vehicle_end) = memory_pair();
-                let vehicle = Vehicle::with_model3(VehicleConfig::default(), cfg.sim_seed)?;
+                let vehicle = Vehicle::with_model3(
+                    VehicleConfig {
+                        faults: cfg.sim_faults.clone(),
+                        ..VehicleConfig::default()
+                    },
+                    cfg.sim_seed,
+                )?;
                 let tap = TruthTap::default();
                 let runner = rov_vehicle::runner::spawn_with_truth(
                     vehicle,

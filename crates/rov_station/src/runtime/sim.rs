@@ -97,7 +97,13 @@ impl VirtualStation {
         let mut link_cfg = cfg.link;
         link_cfg.record_frames = true;
         let link = Link::new(link_cfg)?;
-        let vehicle = Vehicle::with_model3(VehicleConfig::default(), cfg.sim_seed)?;
+        let vehicle = Vehicle::with_model3(
+            VehicleConfig {
+                faults: cfg.sim_faults.clone(),
+                ..VehicleConfig::default()
+            },
+            cfg.sim_seed,
+        )?;
         let engine = Engine::new(cfg, models, Arc::clone(&shared), Source::Sim)?;
         let app = App {
             engine,

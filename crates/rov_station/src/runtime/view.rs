@@ -100,6 +100,8 @@ pub struct HealthView {
     pub power_w: Option<f64>,
     /// Power level reported in the navigation reply, %.
     pub power_pct: Option<f64>,
+    /// Internal temperature, °C (when the vehicle reports it).
+    pub internal_temp_c: Option<f64>,
 }
 
 /// Who controls an axis.
@@ -298,6 +300,8 @@ pub struct StationView {
     pub hint: Option<String>,
     /// The priority the control thread got ("real-time FIFO 60", "nice -10", ...).
     pub control_priority: String,
+    /// The alarm limits in force.
+    pub alarm_limits: crate::runtime::alarms::AlarmConfig,
 }
 
 /// Which instruments have no current data. An instrument is stale when the frame it
