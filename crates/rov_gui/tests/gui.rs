@@ -320,7 +320,7 @@ fn lab_tab_runs_a_diagnosis_off_the_gui_thread() {
     r.press(enabled, true);
     r.press(enabled, false);
     r.run(FRAME_S);
-    assert!(r.harness.state().lab().is_busy() || r.harness.state().lab().added.len() == 1);
+    assert!(r.harness.state().lab().is_busy());
     wait_lab(&mut r, 600.0);
     let lab = r.harness.state().lab();
     assert!(lab.error.is_none(), "{:?}", lab.error);
@@ -334,7 +334,50 @@ fn lab_tab_runs_a_diagnosis_off_the_gui_thread() {
         before["pitch"],
         after["pitch"]
     );
+    // Issue 15 #5: the headline figures and the error fall agree: the last step is the
+    // RMSE of the comparison shown (same view, same held-out data).
+    let c = lab.comparison.as_ref().unwrap();
+    assert_eq!(c.scope, rov_gui::lab::HELD_OUT);
+    assert_eq!(lab.fall[n_fall].1, c.rmse(), "error fall vs headline");
+    // Units on the headline figures; heading drawn within one turn.
+    let titles = r.labels_containing("RMSE");
+    assert!(
+        titles
+            .iter()
+            .any(|t| t.starts_with("depth:") && t.ends_with(" m")),
+        "{titles:?}"
+    );
+    assert!(
+        titles
+            .iter()
+            .any(|t| t.starts_with("heading:") && t.ends_with(" °")),
+        "{titles:?}"
+    );
+    let heading = c.channels.iter().find(|ch| ch.name == "heading").unwrap();
+    let (meas, pred) = rov_gui::lab::channel_lines(&c.t, heading, 1);
+    let ys: Vec<f64> = meas.iter().chain(&pred).flatten().map(|p| p[1]).collect();
+    let (lo, hi) = ys
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), y| {
+            (a.min(*y), b.max(*y))
+        });
+    assert!(hi - lo <= 360.0 + 1e-9, "heading spans {lo}..{hi}");
     r.snapshot_masked("lab_effect_added", data_field(&r));
+
+    // An added effect can be removed: the refit goes back to the calibrated base.
+    r.click("Remove");
+    wait_lab(&mut r, 600.0);
+    let lab = r.harness.state().lab();
+    assert!(lab.error.is_none(), "{:?}", lab.error);
+    assert!(lab.added.is_empty(), "{:?}", lab.added);
+    assert!(lab.model.as_ref().unwrap().active_effects().is_empty());
+    assert_eq!(lab.fall.len(), n_fall + 2);
+    assert_eq!(
+        lab.fall.last().unwrap().1,
+        lab.fall[0].1,
+        "back to the base's RMSE"
+    );
+    assert!(lab.fall.last().unwrap().0.starts_with('-'));
 }
 
 /// The lab's data path field (masked in snapshots: the path depends on the machine).

@@ -186,7 +186,13 @@ impl Rig {
     pub fn labels_containing(&self, text: &str) -> Vec<String> {
         self.harness
             .query_all_by_label_contains(text)
-            .map(|n| n.accesskit_node().label().unwrap_or_default())
+            .map(|n| {
+                let node = n.accesskit_node();
+                node.label()
+                    .filter(|l| !l.is_empty())
+                    .or_else(|| node.value())
+                    .unwrap_or_default()
+            })
             .collect()
     }
 
