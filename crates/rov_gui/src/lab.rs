@@ -687,6 +687,9 @@ pub fn channel_unit(name: &str) -> &'static str {
     }
 }
 
+/// Line segments of a plot, each a list of (t, y) points.
+pub type Segments = Vec<Vec<[f64; 2]>>;
+
 /// The plotted lines of a compared channel: (measured, model) segments. Headings are
 /// drawn within ±180° of the measured run's circular mean and split where they wrap (as
 /// in the Plots tab: no 400-540° axis); `step` thins the samples to about two per pixel.
@@ -695,7 +698,7 @@ pub fn channel_lines(
     t: &[f64],
     ch: &ComparedChannel,
     step: usize,
-) -> (Vec<Vec<[f64; 2]>>, Vec<Vec<[f64; 2]>>) {
+) -> (Segments, Segments) {
     let wraps = ch.name == "heading";
     let reference = if wraps {
         let (s, c) = ch
@@ -710,7 +713,7 @@ pub fn channel_lines(
         0.0
     };
     let lines = |ys: &[f64]| {
-        let mut out: Vec<Vec<[f64; 2]>> = vec![Vec::new()];
+        let mut out: Segments = vec![Vec::new()];
         let mut prev: Option<f64> = None;
         for (x, y) in t.iter().zip(ys).step_by(step.max(1)) {
             if !y.is_finite() {
