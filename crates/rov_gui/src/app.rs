@@ -64,17 +64,23 @@ pub enum Tab {
     Lab,
     /// Vehicle connection.
     Connection,
+    /// The pre-dive checklist.
+    PreDive,
+    /// Gamepad and keyboard setup.
+    Gamepad,
     /// Units, port, recordings, alarm limits.
     Settings,
 }
 
 impl Tab {
-    const ALL: [(Tab, &'static str); 6] = [
+    const ALL: [(Tab, &'static str); 8] = [
         (Tab::Fly, "Fly"),
+        (Tab::PreDive, "Pre-dive"),
         (Tab::Plots, "Plots"),
         (Tab::Replay, "Replay"),
         (Tab::Lab, "Model lab"),
         (Tab::Connection, "Connection"),
+        (Tab::Gamepad, "Gamepad"),
         (Tab::Settings, "Settings"),
     ];
 }
@@ -165,6 +171,16 @@ pub struct StationApp {
     pub(crate) alarm_limits: rov_station::runtime::AlarmConfig,
     /// The pilot's settings.
     pub(crate) station: rov_station::runtime::settings::StationSettings,
+    /// The dive-log note being typed.
+    pub(crate) note_text: String,
+    /// Focus the note field next frame (N key).
+    pub(crate) focus_note: bool,
+    /// The pilot asked for the thruster test and must confirm.
+    pub(crate) confirm_thruster_test: bool,
+    /// The keys-and-buttons window is open (F1 or ?).
+    pub(crate) help_open: bool,
+    /// The gamepad map being edited.
+    pub(crate) pad_map: rov_station::runtime::pad::PadMap,
 }
 
 impl std::fmt::Debug for StationApp {
@@ -213,6 +229,11 @@ impl StationApp {
             config_path: None,
             alarm_limits: rov_station::runtime::AlarmConfig::default(),
             station: rov_station::runtime::settings::StationSettings::default(),
+            note_text: String::new(),
+            focus_note: false,
+            confirm_thruster_test: false,
+            help_open: false,
+            pad_map: rov_station::runtime::pad::PadMap::default(),
         };
         app.set_live(live);
         app
@@ -237,6 +258,18 @@ impl StationApp {
         self.config_path = Some(path);
         self.alarm_limits = alarms;
         self.station = station;
+        self
+    }
+
+    /// The gamepad map and stick shaping from the station configuration.
+    #[must_use]
+    pub fn with_gamepad(
+        mut self,
+        map: rov_station::runtime::pad::PadMap,
+        shaping: rov_station::runtime::StickShaping,
+    ) -> Self {
+        self.pad_map = map;
+        self.shaping = shaping;
         self
     }
 
@@ -399,6 +432,12 @@ impl StationApp {
         self.replay_hist = History::default();
     }
 
+    /// Sends a command to the live station (what the pages do; also for tests and
+    /// other input devices).
+    pub fn command(&mut self, c: RuntimeCommand) {
+        self.live_cmd(c);
+    }
+
     /// Sends a command to the live station.
     pub(crate) fn live_cmd(&mut self, c: RuntimeCommand) {
         if let Some(h) = &self.live
@@ -469,7 +508,10 @@ impl StationApp {
             Tab::Lab => crate::lab::lab_tab(self, ui),
             Tab::Connection => crate::connection::connection_tab(self, ui),
             Tab::Settings => crate::settings::settings_tab(self, ui),
+            Tab::PreDive => crate::dive::predive_tab(self, ui),
+            Tab::Gamepad => crate::pad_page::gamepad_tab(self, ui),
         });
+        crate::help::help_window(self, ui.ctx());
         self.screenshot_step(ui.ctx());
         ui.ctx()
             .request_repaint_after(Duration::from_millis(self.repaint_ms));
@@ -487,6 +529,23 @@ impl StationApp {
                 self.kb_active = false;
             }
             return;
+        }
+        let (marker, note, help) = ui.input(|i| {
+            (
+                i.key_pressed(Key::M),
+                i.key_pressed(Key::N),
+                i.key_pressed(Key::F1) || i.key_pressed(Key::Questionmark),
+            )
+        });
+        if marker && self.replay.is_none() {
+            self.live_cmd(RuntimeCommand::Marker);
+        }
+        if note {
+            self.tab = Tab::Fly;
+            self.focus_note = true;
+        }
+        if help {
+            self.help_open = !self.help_open;
         }
         let (step, toggle_view) = ui.input(|i| {
             let step = if i.key_pressed(Key::Period) {

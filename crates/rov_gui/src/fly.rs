@@ -38,6 +38,8 @@ pub(crate) fn fly(app: &mut StationApp, ui: &mut Ui) {
             crate::layout::scroll(app, ui, "fly_side_scroll", |app, ui| {
                 crate::panels::autopilot_panel(app, ui);
                 ui.separator();
+                crate::dive::dive_panel(app, ui);
+                ui.separator();
                 crate::panels::health_panel(app, ui);
                 ui.separator();
                 crate::panels::link_panel(app, ui);

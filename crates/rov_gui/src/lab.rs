@@ -694,11 +694,7 @@ pub type Segments = Vec<Vec<[f64; 2]>>;
 /// drawn within ±180° of the measured run's circular mean and split where they wrap (as
 /// in the Plots tab: no 400-540° axis); `step` thins the samples to about two per pixel.
 #[must_use]
-pub fn channel_lines(
-    t: &[f64],
-    ch: &ComparedChannel,
-    step: usize,
-) -> (Segments, Segments) {
+pub fn channel_lines(t: &[f64], ch: &ComparedChannel, step: usize) -> (Segments, Segments) {
     let wraps = ch.name == "heading";
     let reference = if wraps {
         let (s, c) = ch

@@ -17,10 +17,13 @@
 
 pub mod app;
 mod connection;
+mod dive;
 pub mod fly;
+mod help;
 pub mod instruments;
 pub mod lab;
 pub mod layout;
+mod pad_page;
 mod panels;
 pub mod plots;
 mod replay;
@@ -34,6 +37,12 @@ use std::time::Duration;
 
 pub use app::{AutodetectResult, Backend, ScreenshotRequest, StationApp, Tab};
 pub use fly::MainView;
+
+/// The keys the F1 window lists (for tests and documentation).
+#[must_use]
+pub fn help_keys() -> Vec<&'static str> {
+    help::KEYS.iter().map(|(k, _)| *k).collect()
+}
 use rov_station::runtime::{Connection, Runtime, RuntimeConfig, StationHandle};
 
 /// The real backend: stations on their own threads ([`Runtime`]).
@@ -93,11 +102,7 @@ impl Backend for RealBackend {
     }
 
     fn recording_path(&mut self) -> PathBuf {
-        let secs = std::time::SystemTime::now()
-            .duration_since(std::time::UNIX_EPOCH)
-            .map_or(0, |d| d.as_secs());
-        let _ = std::fs::create_dir_all(&self.recordings_dir);
-        self.recordings_dir.join(format!("session-{secs}.mcap"))
+        rov_station::runtime::recording_path_in(&self.recordings_dir)
     }
 }
 

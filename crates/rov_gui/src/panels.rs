@@ -502,6 +502,7 @@ pub(crate) fn pad_text(p: &PadStatus) -> String {
         }
         PadStatus::Connected(n) => format!("gamepad: {n}"),
         PadStatus::WaitingForCentre(n) => format!("gamepad {n}: centre the sticks"),
+        PadStatus::Stale => "gamepad thread not responding: sticks centred".into(),
     }
 }
 
@@ -519,46 +520,9 @@ pub(crate) fn sticks_panel(app: &mut StationApp, ui: &mut Ui) {
     stick_bar(ui, "surge", p.raw.surge, p.shaped.surge);
     stick_bar(ui, "yaw", p.raw.yaw, p.shaped.yaw);
     stick_bar(ui, "vertical", p.raw.vertical, p.shaped.vertical);
-    let armed = v.snapshot.armed;
-    egui::CollapsingHeader::new("Stick shaping (locked while armed)")
-        .id_salt("shaping")
-        .show(ui, |ui| {
-            ui.add_enabled_ui(!armed, |ui| {
-                let mut s = app.shaping;
-                egui::Grid::new("shaping_grid")
-                    .num_columns(4)
-                    .show(ui, |ui| {
-                        ui.label("");
-                        ui.label("deadband");
-                        ui.label("expo");
-                        ui.label("");
-                        ui.end_row();
-                        for (name, a) in [
-                            ("surge", &mut s.surge),
-                            ("yaw", &mut s.yaw),
-                            ("vertical", &mut s.vertical),
-                        ] {
-                            let l = ui.label(name);
-                            ui.add(
-                                egui::DragValue::new(&mut a.deadband)
-                                    .range(0.0..=0.5)
-                                    .speed(0.01),
-                            )
-                            .labelled_by(l.id);
-                            ui.add(
-                                egui::DragValue::new(&mut a.expo)
-                                    .range(0.0..=1.0)
-                                    .speed(0.01),
-                            )
-                            .labelled_by(l.id);
-                            ui.checkbox(&mut a.invert, "inv");
-                            ui.end_row();
-                        }
-                    });
-                if s != app.shaping {
-                    app.shaping = s;
-                    app.live_cmd(RuntimeCommand::Shaping(s));
-                }
-            });
-        });
+    ui.label(
+        RichText::new("Deadband, expo, scale and the button map: Gamepad tab.")
+            .small()
+            .color(theme::DIM),
+    );
 }

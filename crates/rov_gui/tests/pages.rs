@@ -7,6 +7,7 @@ mod common;
 use common::{FRAME_S, rig};
 use egui_kittest::kittest::{NodeT, Queryable};
 use rov_gui::Tab;
+use rov_station::runtime::dive::ItemStatus;
 use rov_station::runtime::{AlarmKind, AlarmLevel};
 
 /// Sets the n-th drag value labelled `label` through accesskit.
@@ -76,4 +77,167 @@ fn alarm_limits_set_in_settings_warn_then_alarm_and_acknowledge() {
     let events = r.view().events.join("\n");
     assert!(events.contains("DEPTH LIMIT (warning)"), "{events}");
     assert!(events.contains("DEPTH LIMIT (ALARM)"), "{events}");
+}
+
+#[test]
+fn the_predive_checklist_runs_and_its_result_is_recorded() {
+    let mut r = rig("predive.mcap");
+    r.run(2.0);
+    r.harness.state_mut().set_tab(Tab::PreDive);
+    r.run(FRAME_S);
+    r.click("Heading is right");
+    r.click("Zero depth here");
+    let c = r.view().checklist;
+    assert_eq!(c.items[1].status, ItemStatus::Pass, "{:?}", c.items[1]);
+    assert_eq!(c.items[3].status, ItemStatus::Pass, "{:?}", c.items[3]);
+    // The thruster test needs arming and a confirmation.
+    assert!(
+        r.harness
+            .get_by_label("Run thruster test")
+            .accesskit_node()
+            .is_disabled()
+    );
+    r.harness.state_mut().set_tab(Tab::Fly);
+    r.run(FRAME_S);
+    r.arm();
+    r.harness.state_mut().set_tab(Tab::PreDive);
+    r.run(FRAME_S);
+    r.click("Run thruster test");
+    assert!(
+        r.view().checklist.test_running.is_none(),
+        "not before the confirmation"
+    );
+    r.click("Start the test");
+    r.run(0.4);
+    assert_eq!(r.view().checklist.test_running, Some(Some(0)), "port first");
+    assert!(r.view().snapshot.thrust.port_pct > 20.0);
+    r.run(5.0);
+    let c = r.view().checklist;
+    assert_eq!(c.test_running, None);
+    for t in c.thrusters {
+        assert_eq!(t.commanded_pct, 25.0);
+        assert!(t.drew_current(), "{t:?}");
+    }
+    assert_eq!(c.items[2].status, ItemStatus::Pass, "{:?}", c.items[2]);
+    assert_eq!(c.passed(), 5, "{:#?}", c.items);
+    r.snapshot("predive_checklist");
+    r.click("Record the result in the session");
+    r.click("STOP REC");
+    r.run(0.3);
+    let path = r.view().recording.last_file.clone().unwrap();
+    let session = rov_session::open(&path).unwrap();
+    let events = session.records::<rov_session::EventRecord>().unwrap();
+    let rec = events
+        .iter()
+        .find(|(_, e)| e.kind == "checklist" && e.text.starts_with("pre-dive checklist"))
+        .unwrap_or_else(|| panic!("{events:#?}"));
+    assert!(rec.1.text.contains("5/5 passed"), "{}", rec.1.text);
+    assert!(rec.1.text.contains("port +25 %"), "{}", rec.1.text);
+}
+
+#[test]
+fn dive_log_markers_and_notes_are_recorded_and_shown_in_replay() {
+    let mut r = rig("divelog.mcap");
+    r.run(2.0);
+    r.arm();
+    r.click_nth("OFF", 0);
+    r.click_nth("+1", 0);
+    r.run(4.0);
+    assert!(r.view().dive.diving, "{:?}", r.view().dive);
+    r.harness.key_press(egui::Key::M);
+    r.run(FRAME_S);
+    r.harness.key_press(egui::Key::N);
+    r.run(FRAME_S);
+    r.harness.event(egui::Event::Text("wreck in sight".into()));
+    r.run(FRAME_S);
+    r.harness.key_press(egui::Key::Enter);
+    r.run(0.2);
+    let d = r.view().dive;
+    assert_eq!((d.markers, d.notes), (1, 1), "{d:?}");
+    assert!(d.dive_s > 2.0 && d.max_depth_m > 0.5, "{d:?}");
+    r.snapshot("fly_dive_log");
+    r.click("STOP REC");
+    r.run(0.2);
+    r.harness.state_mut().set_tab(Tab::Replay);
+    r.run(FRAME_S);
+    r.click_containing("Open the last recording");
+    r.run(FRAME_S);
+    let labels = r.labels_containing("marker 1");
+    assert!(!labels.is_empty(), "marker not in the replay index");
+    let notes = r.labels_containing("wreck in sight");
+    assert!(notes.iter().any(|l| l.contains("note 1")), "{notes:?}");
+    assert!(r.has_label_containing("dive 1 started"));
+}
+
+#[test]
+fn f1_shows_every_key_and_gamepad_binding() {
+    let mut r = rig("help.mcap");
+    r.run(1.0);
+    assert!(!r.has_label_containing("Keys and buttons"));
+    r.harness.key_press(egui::Key::F1);
+    r.run(FRAME_S);
+    assert!(r.has_label_containing("Keys and buttons"));
+    for k in rov_gui::help_keys() {
+        assert!(r.has_label_containing(k), "{k} missing");
+    }
+    for text in [
+        "depth hold on/off",
+        "record on/off",
+        "with left_trigger held",
+    ] {
+        assert!(r.has_label_containing(text), "{text} missing");
+    }
+    r.snapshot("help_keys_and_buttons");
+    r.harness.key_press(egui::Key::F1);
+    r.run(FRAME_S);
+    assert!(!r.has_label_containing("Keys and buttons"));
+}
+
+#[test]
+fn the_gamepad_page_shows_raw_and_shaped_and_applies_the_shaping() {
+    use rov_station::runtime::RuntimeCommand;
+    use rov_station::runtime::pad::PadState;
+    let mut r = rig("pad.mcap");
+    r.run(1.0);
+    r.harness.state_mut().set_tab(Tab::Gamepad);
+    let mut half = PadState::default();
+    // Centre first (the reconnect rule), then the left stick half forward.
+    for _ in 0..4 {
+        r.harness
+            .state_mut()
+            .command(RuntimeCommand::PadInput(PadState::default()));
+        r.run(FRAME_S);
+    }
+    half.axes[1] = 0.5;
+    let push = |r: &mut common::Rig| {
+        r.harness
+            .state_mut()
+            .command(RuntimeCommand::PadInput(half));
+        r.run(FRAME_S);
+    };
+    for _ in 0..4 {
+        push(&mut r);
+    }
+    let p = r.view().pilot;
+    assert_eq!(p.input, "gamepad");
+    assert_eq!(p.raw.surge, 0.5);
+    assert!(
+        p.shaped.surge > 0.2 && p.shaped.surge < 0.5,
+        "{:?}",
+        p.shaped
+    );
+    assert!(r.has_label_containing("left_y +0.50"));
+    r.snapshot("gamepad_page");
+    // A 0.5 deadband on surge swallows a half deflection.
+    set_value(&mut r, "surge", 0, 0.5);
+    r.click("Apply map");
+    for _ in 0..3 {
+        push(&mut r);
+    }
+    assert_eq!(
+        r.view().pilot.shaped.surge,
+        0.0,
+        "{:?}",
+        r.view().pilot.shaped
+    );
 }

@@ -45,11 +45,13 @@ use rov_driver::{LinkConfig, MonoClock};
 use crate::core::{Snapshot, StationCommand};
 
 pub mod alarms;
+pub mod dive;
 mod engine;
 #[cfg(feature = "gamepad")]
 pub mod gamepad;
 pub mod history;
 mod live;
+pub mod pad;
 pub mod predict;
 pub mod priority;
 pub mod recorder;
@@ -98,6 +100,10 @@ pub struct RuntimeConfig {
     pub link: LinkConfig,
     /// Stick shaping.
     pub shaping: StickShaping,
+    /// The gamepad map.
+    pub pad_map: pad::PadMap,
+    /// Where the gamepad's Record button records (None: the button does nothing).
+    pub recordings_dir: Option<PathBuf>,
     /// Initial gain step (index into [`GAIN_STEPS_PCT`]).
     pub gain_index: usize,
     /// Alarm thresholds.
@@ -126,6 +132,8 @@ impl Default for RuntimeConfig {
             config_toml: String::new(),
             link: LinkConfig::default(),
             shaping: StickShaping::default(),
+            pad_map: pad::PadMap::default(),
+            recordings_dir: None,
             gain_index: Gain::default().index(),
             alarms: AlarmConfig::default(),
             gamepad: true,
@@ -172,6 +180,24 @@ pub enum CameraCommand {
     Focus(f64),
 }
 
+/// Pre-dive checklist actions (see [`dive`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ChecklistCommand {
+    /// The heading shown matches a known bearing.
+    CompassOk,
+    /// It does not.
+    CompassBad,
+    /// Zero the depth here (at the surface): the pressure now becomes the surface
+    /// pressure.
+    ZeroDepth,
+    /// Run the thruster test (armed; the GUI asks the pilot to confirm first).
+    StartThrusterTest,
+    /// Stop the thruster test.
+    AbortThrusterTest,
+    /// Record the checklist's result in the session now.
+    Record,
+}
+
 /// Replay controls.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum ReplayCommand {
@@ -212,6 +238,12 @@ pub enum RuntimeCommand {
     AckAlarm(Option<AlarmKind>),
     /// New alarm limits (the pilot's settings).
     AlarmLimits(AlarmConfig),
+    /// A note for the dive log (recorded as an event).
+    Note(String),
+    /// A marker in the dive log (recorded as an event with the depth and heading).
+    Marker,
+    /// A pre-dive checklist action.
+    Checklist(ChecklistCommand),
     /// Zero the tether turns counter.
     ResetTurns,
     /// Start recording to a file.
@@ -220,6 +252,11 @@ pub enum RuntimeCommand {
     StopRecording,
     /// Replay controls (replay sources only).
     Replay(ReplayCommand),
+    /// A new gamepad map (axes, buttons, shift layer).
+    PadMap(pad::PadMap),
+    /// A virtual gamepad's raw state (tests and other input devices): mapped exactly
+    /// like a real pad's, and stale after [`RuntimeConfig::keyboard_timeout_us`].
+    PadInput(pad::PadState),
     /// Fault injection for tests: block the control thread for this long.
     InjectStall(Duration),
     /// Stop the runtime.
@@ -253,24 +290,40 @@ pub enum RuntimeError {
     Thread(String),
 }
 
+/// A fresh recording file in `dir`: `session-<unix time>.mcap` (one naming rule for the
+/// REC button, the gamepad and `topside`). Creates the folder.
+#[must_use]
+pub fn recording_path_in(dir: &Path) -> PathBuf {
+    let secs = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_secs());
+    let _ = std::fs::create_dir_all(dir);
+    let mut p = dir.join(format!("session-{secs}.mcap"));
+    let mut k = 1;
+    while p.exists() {
+        k += 1;
+        p = dir.join(format!("session-{secs}-{k}.mcap"));
+    }
+    p
+}
+
 /// Command queue capacity.
 pub const COMMAND_CAPACITY: usize = 256;
 
-/// Gamepad state shared with the gamepad thread.
+/// Gamepad state shared with the gamepad thread: the raw pad only (the control tick
+/// maps it, see [`pad`]).
 #[derive(Debug, Clone, Default)]
 pub(crate) struct PadSlot {
-    /// Raw sticks.
-    pub sticks: rov_control::PilotInput,
+    /// Raw axes and buttons (zero unless `live`).
+    pub state: pad::PadState,
+    /// Raw axes and buttons as reported, also before the centre rule (setup page).
+    pub raw: pad::PadState,
     /// Last poll of the gamepad thread, µs of the runtime clock.
     pub heartbeat_us: u64,
     /// Sticks usable (connected, passed through centre since connecting).
     pub live: bool,
     /// Status for the GUI.
     pub status: view::PadStatus,
-    /// Buttons held, by name.
-    pub buttons: Vec<String>,
-    /// The arm button is held.
-    pub arm_held: bool,
 }
 
 /// State shared between the runtime threads and the handle.

@@ -42,8 +42,9 @@ pub fn config_and_settings(
         ControlConfig::from_toml_str(&text, CONFIG_PATH)
             .with_context(|| format!("reading {CONFIG_PATH}"))?
     };
-    let (alarms, station) =
-        settings::load(&text, CONFIG_PATH).with_context(|| format!("reading {CONFIG_PATH}"))?;
+    let pilot =
+        settings::load_all(&text, CONFIG_PATH).with_context(|| format!("reading {CONFIG_PATH}"))?;
+    let (alarms, station) = (pilot.alarms, pilot.station);
     let mut sim_faults = rov_station::runtime::SimFaults::none();
     sim_faults.drop_reply = station.sim_link_errors_pct / 100.0;
     Ok((
@@ -53,6 +54,8 @@ pub fn config_and_settings(
             config_toml: text,
             alarms,
             sim_faults,
+            shaping: pilot.shaping,
+            pad_map: pilot.pad,
             ..RuntimeConfig::default()
         },
         station,
@@ -73,6 +76,7 @@ pub fn run_station(
     let recordings = record_to
         .clone()
         .unwrap_or_else(|| PathBuf::from("recordings"));
+    cfg.recordings_dir = Some(recordings.clone());
     let backend = RealBackend::new(cfg.clone(), recordings);
     let (live, error) = match Runtime::start(cfg.clone()) {
         Ok(h) => (Some(h), None),
@@ -82,7 +86,8 @@ pub fn run_station(
     // naming as the REC button), unless --no-record.
     let mut app = StationApp::new(Box::new(backend), None)
         .with_record_on_connect(record_to.is_some() && station.record_on_connect)
-        .with_settings(PathBuf::from(CONFIG_PATH), cfg.alarms, station);
+        .with_settings(PathBuf::from(CONFIG_PATH), cfg.alarms, station)
+        .with_gamepad(cfg.pad_map.clone(), cfg.shaping);
     app.connect_handle(live);
     if let Some(e) = error {
         eprintln!("warning: {e}");

@@ -118,9 +118,8 @@ pub(crate) fn start(cfg: RuntimeConfig, models: ModelSet) -> Result<StationHandl
     #[cfg(feature = "gamepad")]
     if cfg.gamepad {
         let shared = Arc::clone(&shared);
-        let cmds = cmd_tx.clone();
         threads.push(spawn_named("station-gamepad", move || {
-            crate::runtime::gamepad::run(&shared, &cmds);
+            crate::runtime::gamepad::run(&shared);
         })?);
     }
     {

@@ -11,6 +11,22 @@ use rov_types::params::{ConfigError, ParamFile};
 use serde::Serialize;
 
 use crate::runtime::alarms::AlarmConfig;
+use crate::runtime::pad::PadMap;
+use crate::runtime::shaping::StickShaping;
+
+/// Everything the pilot sets in the station configuration.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct PilotSettings {
+    /// `[alarms]`.
+    pub alarms: AlarmConfig,
+    /// `[station]`.
+    pub station: StationSettings,
+    /// `[gamepad]` axes and buttons.
+    pub pad: PadMap,
+    /// `[gamepad.surge]`, `[gamepad.yaw]`, `[gamepad.vertical]`.
+    pub shaping: StickShaping,
+}
+
 
 /// Depth unit shown.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
@@ -132,11 +148,25 @@ impl StationSettings {
 /// # Errors
 /// [`ConfigError`] naming the file, key, value and allowed range.
 pub fn load(text: &str, label: &str) -> Result<(AlarmConfig, StationSettings), ConfigError> {
+    let p = load_all(text, label)?;
+    Ok((p.alarms, p.station))
+}
+
+/// Reads every pilot table (alarms, station, gamepad map and stick shaping); unknown
+/// keys under `[gamepad]` are refused.
+///
+/// # Errors
+/// [`ConfigError`] naming the file, key, value and allowed range.
+pub fn load_all(text: &str, label: &str) -> Result<PilotSettings, ConfigError> {
     let f = ParamFile::parse(text, label, false)?;
-    Ok((
-        AlarmConfig::from_param_file(&f)?,
-        StationSettings::from_param_file(&f)?,
-    ))
+    let p = PilotSettings {
+        alarms: AlarmConfig::from_param_file(&f)?,
+        station: StationSettings::from_param_file(&f)?,
+        pad: PadMap::from_param_file(&f)?,
+        shaping: StickShaping::from_param_file(&f)?,
+    };
+    f.reject_unknown("gamepad")?;
+    Ok(p)
 }
 
 /// Writes `[alarms]` and `[station]` into the file at `path` (created if absent),
@@ -145,18 +175,43 @@ pub fn load(text: &str, label: &str) -> Result<(AlarmConfig, StationSettings), C
 /// # Errors
 /// A message naming the file.
 pub fn save(path: &Path, alarms: &AlarmConfig, station: &StationSettings) -> Result<(), String> {
+    let fresh = format!(
+        "[alarms]\n{}\n[station]\n{}",
+        alarms.to_toml(),
+        station.to_toml()
+    );
+    save_tables(path, &fresh, &["alarms", "station"])
+}
+
+/// Writes `[gamepad]` (axes, shift, buttons, shift buttons, stick shaping) into the file
+/// at `path` like [`save`].
+///
+/// # Errors
+/// A message naming the file.
+pub fn save_gamepad(path: &Path, pad: &PadMap, shaping: &StickShaping) -> Result<(), String> {
+    let (head, buttons, shifted) = pad.to_toml();
+    let fresh = format!(
+        "[gamepad]\n{head}[gamepad.surge]\n{}[gamepad.yaw]\n{}[gamepad.vertical]\n{}[gamepad.buttons]\n{buttons}[gamepad.shift_buttons]\n{shifted}",
+        StickShaping::axis_toml(&shaping.surge),
+        StickShaping::axis_toml(&shaping.yaw),
+        StickShaping::axis_toml(&shaping.vertical),
+    );
+    // The button tables are replaced whole (a button unmapped must disappear).
+    save_tables(path, &fresh, &["gamepad"])
+}
+
+fn save_tables(path: &Path, fresh: &str, tables: &[&str]) -> Result<(), String> {
     let text = std::fs::read_to_string(path).unwrap_or_default();
     let mut doc: toml_edit::DocumentMut = text
         .parse()
         .map_err(|e| format!("{}: not valid TOML: {e}", path.display()))?;
-    let fresh: toml_edit::DocumentMut = format!(
-        "[alarms]\n{}\n[station]\n{}",
-        alarms.to_toml(),
-        station.to_toml()
-    )
-    .parse()
-    .map_err(|e| format!("settings: {e}"))?;
-    for table in ["alarms", "station"] {
+    let fresh: toml_edit::DocumentMut = fresh.parse().map_err(|e| format!("settings: {e}"))?;
+    for &table in tables {
+        if table == "gamepad" {
+            let new = fresh.get(table).cloned().unwrap_or_else(toml_edit::table);
+            doc.insert(table, new);
+            continue;
+        }
         let new = fresh.get(table).cloned().unwrap_or_else(toml_edit::table);
         match doc.get_mut(table).and_then(toml_edit::Item::as_table_mut) {
             // Keep the table's and the keys' comments: replace the values only.

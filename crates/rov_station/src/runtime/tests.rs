@@ -473,3 +473,68 @@ fn a_live_recording_is_in_time_order() {
     assert!(s.warnings.is_empty(), "{:?}", s.warnings);
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// The gamepad map through the runtime with a virtual pad: the centre rule, hold Start
+/// to arm, a button press toggles a hold, the shift layer gives a button its second
+/// function (record), the mapped axis drives surge.
+#[test]
+fn a_virtual_pad_is_mapped_like_a_real_one() {
+    use crate::runtime::pad::{PadButton, PadState};
+    let _serial = serial();
+    let dir = std::env::temp_dir().join(format!("rov_station_pad_{}", std::process::id()));
+    let cfg = RuntimeConfig {
+        recordings_dir: Some(dir.clone()),
+        ..sim_config()
+    };
+    let (mut st, h) = VirtualStation::new(cfg).unwrap();
+    st.advance(2.0).unwrap();
+    let hold = |st: &mut VirtualStation, s: PadState, secs: f64| {
+        let n = (secs / 0.05).round() as usize;
+        for _ in 0..n {
+            h.command(RuntimeCommand::PadInput(s));
+            st.advance(0.05).unwrap();
+        }
+    };
+    let press = |b: &[PadButton]| PadState {
+        buttons: b.iter().map(|b| b.bit()).sum(),
+        ..PadState::default()
+    };
+    // A stick deflected at connection does not count until centred.
+    let mut deflected = PadState::default();
+    deflected.axes[1] = 0.9;
+    hold(&mut st, deflected, 0.3);
+    assert_eq!(h.view().snapshot.thrust.port_pct, 0.0);
+    assert!(matches!(h.view().pilot.pad, PadStatus::WaitingForCentre(_)));
+    hold(&mut st, PadState::default(), 0.2);
+    hold(&mut st, press(&[PadButton::Start]), 1.3);
+    assert!(h.view().snapshot.armed, "{:?}", h.view().last_refusal);
+    hold(&mut st, PadState::default(), 0.1);
+    hold(&mut st, press(&[PadButton::North]), 0.1);
+    hold(&mut st, PadState::default(), 0.1);
+    assert_eq!(h.view().depth.mode, AxisModeView::Hold);
+    // Shift (left trigger) + North: record.
+    assert!(h.view().recording.path.is_none());
+    hold(&mut st, press(&[PadButton::LeftTrigger]), 0.1);
+    hold(
+        &mut st,
+        press(&[PadButton::LeftTrigger, PadButton::North]),
+        0.1,
+    );
+    hold(&mut st, PadState::default(), 0.1);
+    assert!(h.view().recording.path.is_some(), "shift+north records");
+    assert_eq!(
+        h.view().depth.mode,
+        AxisModeView::Hold,
+        "not the unshifted function"
+    );
+    // The left stick's Y drives surge.
+    let mut fwd = PadState::default();
+    fwd.axes[1] = 1.0;
+    hold(&mut st, fwd, 0.5);
+    let v = h.view();
+    assert_eq!(v.pilot.input, "gamepad");
+    assert!(v.snapshot.thrust.port_pct > 5.0, "{:?}", v.snapshot.thrust);
+    h.stop_recording();
+    st.advance(0.1).unwrap();
+    std::fs::remove_dir_all(&dir).ok();
+}

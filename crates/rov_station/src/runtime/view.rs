@@ -141,6 +141,8 @@ pub enum PadStatus {
     Connected(String),
     /// A pad reconnected: its sticks must pass through centre before they count.
     WaitingForCentre(String),
+    /// The gamepad thread stopped reporting (sticks count as centred).
+    Stale,
 }
 
 /// Pilot input.
@@ -165,7 +167,7 @@ impl From<PilotInput> for SticksView {
 }
 
 /// Pilot-side state.
-#[derive(Debug, Clone, PartialEq, Default, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct PilotView {
     /// Raw sticks (before shaping).
     pub raw: SticksView,
@@ -183,6 +185,30 @@ pub struct PilotView {
     pub input: String,
     /// Buttons held, by name.
     pub buttons: Vec<String>,
+    /// The pad's raw axes and buttons (setup page), before the centre rule.
+    pub pad_raw: crate::runtime::pad::PadState,
+    /// The gamepad map in force.
+    pub pad_map: crate::runtime::pad::PadMap,
+    /// The shift button is held.
+    pub shift: bool,
+}
+
+impl Default for PilotView {
+    fn default() -> Self {
+        Self {
+            raw: SticksView::default(),
+            shaped: SticksView::default(),
+            gain_pct: 0.0,
+            gain_index: 0,
+            arm_progress: 0.0,
+            pad: PadStatus::default(),
+            input: String::new(),
+            buttons: Vec::new(),
+            pad_raw: crate::runtime::pad::PadState::default(),
+            pad_map: crate::runtime::pad::PadMap::default(),
+            shift: false,
+        }
+    }
 }
 
 /// Camera and lights.
@@ -302,6 +328,10 @@ pub struct StationView {
     pub control_priority: String,
     /// The alarm limits in force.
     pub alarm_limits: crate::runtime::alarms::AlarmConfig,
+    /// The dive log (timer, deepest point, notes, markers).
+    pub dive: crate::runtime::dive::DiveView,
+    /// The pre-dive checklist.
+    pub checklist: crate::runtime::dive::ChecklistView,
 }
 
 /// Which instruments have no current data. An instrument is stale when the frame it
