@@ -121,7 +121,7 @@ const COLUMN_W: f32 = 180.0;
 /// area, so nothing is clipped at 1024×600 and no band stays empty at 1920×1080.
 fn instrument_layout(app: &mut StationApp, ui: &mut Ui, v: &StationView) {
     let avail = ui.available_size();
-    let tape_w = (avail.x * 0.16).clamp(120.0, 170.0);
+    let tape_w = (avail.x * 0.16).clamp(130.0, 170.0);
     ui.horizontal_top(|ui| {
         depth_tape(app, ui, v, vec2(tape_w, avail.y - 4.0));
         ui.vertical(|ui| {

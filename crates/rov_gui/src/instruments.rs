@@ -292,7 +292,7 @@ impl DepthTape {
         painter.text(
             pos2(rect.max.x - 4.0, rect.max.y - 3.0),
             Align2::RIGHT_BOTTOM,
-            format!("vert thrust {:+.0} %", self.vertical_pct),
+            format!("thr {:+.0} %", self.vertical_pct),
             theme::small(),
             theme::THRUST,
         );

@@ -89,7 +89,7 @@ fn axis_row(app: &mut StationApp, ui: &mut Ui, axis: Axis, v: &StationView, repl
             };
             for (d, label) in steps {
                 if ui
-                    .add(egui::Button::new(label).min_size(vec2(38.0, 20.0)))
+                    .add(egui::Button::new(label).min_size(vec2(34.0, 20.0)))
                     .clicked()
                 {
                     mode_cmd(
@@ -291,7 +291,7 @@ pub(crate) fn health_panel(app: &StationApp, ui: &mut Ui) {
             };
             dot_label(ui, tick_color, "Control loop");
             ui.label(
-                RichText::new(format!("missed {}  late p99 {late_ms:.1} ms", t.missed)).monospace(),
+                RichText::new(format!("{} missed, p99 {late_ms:.1} ms", t.missed)).monospace(),
             )
             .on_hover_text(format!(
                 "{} ticks, late max {:.1} ms, watchdog trips {}; a tick is missed when it \

@@ -241,3 +241,57 @@ fn the_gamepad_page_shows_raw_and_shaped_and_applies_the_shaping() {
         r.view().pilot.shaped
     );
 }
+
+/// Every tab at the smallest and the largest window a pilot uses: no control cut off
+/// (egui's clipped rectangles; scroll areas excepted), and the Fly tab's main view fills
+/// the space left by the side panel (no empty band). Snapshots of each.
+fn every_tab_fits(w: f32, h: f32) {
+    let mut problems = Vec::new();
+    let mut r = common::rig_sized(&format!("size{w}.mcap"), egui::vec2(w, h));
+    r.run(2.0);
+    r.arm();
+    r.click_nth("OFF", 0);
+    r.run(1.0);
+    for (tab, name) in [
+        (Tab::Fly, "fly"),
+        (Tab::PreDive, "predive"),
+        (Tab::Plots, "plots"),
+        (Tab::Replay, "replay"),
+        (Tab::Lab, "lab"),
+        (Tab::Connection, "connection"),
+        (Tab::Gamepad, "gamepad"),
+        (Tab::Settings, "settings"),
+    ] {
+        r.harness.state_mut().set_tab(tab);
+        r.run(FRAME_S);
+        r.harness.step();
+        for c in r.harness.state().clipped_widgets(&r.harness.ctx) {
+            problems.push(format!(
+                "{w}x{h} {name}: {:?} at {:?} visible {:?}",
+                c.label, c.rect, c.visible
+            ));
+        }
+        if tab == Tab::Fly {
+            let main = r.harness.state().main_view_rect().unwrap();
+            if !(main.width() > 0.6 * w && main.height() > h - 200.0) {
+                problems.push(format!("{w}x{h}: main view {main:?}"));
+            }
+        }
+        r.snapshot(&format!("size_{w}x{h}_{name}"));
+    }
+    assert!(
+        problems.is_empty(),
+        "controls cut off:\n{}",
+        problems.join("\n")
+    );
+}
+
+#[test]
+fn every_tab_fits_at_1024x600() {
+    every_tab_fits(1024.0, 600.0);
+}
+
+#[test]
+fn every_tab_fits_at_1920x1080() {
+    every_tab_fits(1920.0, 1080.0);
+}

@@ -27,7 +27,6 @@ pub struct PilotSettings {
     pub shaping: StickShaping,
 }
 
-
 /// Depth unit shown.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
 pub enum DepthUnit {
