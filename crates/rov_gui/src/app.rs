@@ -811,7 +811,7 @@ impl StationApp {
     }
 
     fn screenshot_step(&mut self, ctx: &egui::Context) {
-        let Some(req) = &mut self.screenshot else {
+        let Some(req) = self.screenshot.as_mut() else {
             return;
         };
         let now = std::time::Instant::now();
@@ -823,6 +823,17 @@ impl StationApp {
         if !req.state.requested && now.duration_since(started).as_secs_f64() >= req.after_s {
             req.state.requested = true;
             let path = req.path.clone();
+            // The layout check of this very frame, next to the PNG.
+            let report = serde_json::json!({
+                "window": [ctx.content_rect().width(), ctx.content_rect().height()],
+                "main_view": self.layout.main_rect.map(|r| [r.min.x, r.min.y, r.max.x, r.max.y]),
+                "clipped": crate::layout::clipped_widgets(ctx, &self.layout, 1.0),
+                "link_quality": format!("{:?}", self.live_view.link.quality),
+                "link_errors": self.live_view.link.errors,
+            });
+            if let Err(e) = std::fs::write(path.with_extension("layout.json"), report.to_string()) {
+                eprintln!("layout report: {e}");
+            }
             let done = Arc::clone(&req.state.done);
             let ok = Arc::clone(&req.state.ok);
             let c = ctx.clone();

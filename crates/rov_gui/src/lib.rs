@@ -106,13 +106,13 @@ impl Backend for RealBackend {
     }
 }
 
-/// Window options for the station (1280×800, titled).
+/// Window options for the station (1280×800 unless given, at least 1024×600, titled).
 #[must_use]
-pub fn native_options() -> eframe::NativeOptions {
+pub fn native_options(size: Option<[f32; 2]>) -> eframe::NativeOptions {
     eframe::NativeOptions {
         viewport: egui::ViewportBuilder::default()
-            .with_inner_size([1280.0, 800.0])
-            .with_min_inner_size([1024.0, 640.0])
+            .with_inner_size(size.unwrap_or([1280.0, 800.0]))
+            .with_min_inner_size([1024.0, 600.0])
             .with_title("topside — VideoRay Pro 4 station"),
         ..eframe::NativeOptions::default()
     }
@@ -123,9 +123,17 @@ pub fn native_options() -> eframe::NativeOptions {
 /// # Errors
 /// eframe's error text when the window cannot be created.
 pub fn run_native(app: StationApp) -> Result<(), String> {
+    run_native_sized(app, None)
+}
+
+/// [`run_native`] with a window size (points).
+///
+/// # Errors
+/// eframe's error text when the window cannot be created.
+pub fn run_native_sized(app: StationApp, size: Option<[f32; 2]>) -> Result<(), String> {
     eframe::run_native(
         "topside",
-        native_options(),
+        native_options(size),
         Box::new(move |cc| {
             theme::apply(&cc.egui_ctx);
             Ok(Box::new(app))

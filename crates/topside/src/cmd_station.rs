@@ -62,12 +62,28 @@ pub fn config_and_settings(
     ))
 }
 
+/// "1024x600" → [1024, 600] (at least 1024×600, at most 7680×4320).
+fn parse_size(s: &str) -> Option<[f32; 2]> {
+    let (w, h) = s.split_once('x')?;
+    let (w, h) = (w.trim().parse::<u32>().ok()?, h.trim().parse::<u32>().ok()?);
+    ((1024..=7680).contains(&w) && (600..=4320).contains(&h)).then_some([w as f32, h as f32])
+}
+
 /// Opens the station window; see the module docs.
 pub fn run_station(
     port: Option<String>,
     record_to: Option<PathBuf>,
     screenshot: Option<(PathBuf, f64)>,
+    window_size: Option<String>,
 ) -> anyhow::Result<ExitCode> {
+    let size = match window_size.as_deref().map(parse_size) {
+        Some(Some(s)) => Some(s),
+        Some(None) => anyhow::bail!(
+            "--window-size {}: expected WIDTHxHEIGHT, at least 1024x600",
+            window_size.unwrap_or_default()
+        ),
+        None => None,
+    };
     let explicit_port = port.is_some();
     let (mut cfg, station) = config_and_settings(port)?;
     if !explicit_port && !station.serial_port.trim().is_empty() {
@@ -100,7 +116,8 @@ pub fn run_station(
         saved = Some(req.saved_flag());
         app = app.with_screenshot(req);
     }
-    rov_gui::run_native(app).map_err(|e| anyhow::anyhow!("cannot open the window: {e}"))?;
+    rov_gui::run_native_sized(app, size)
+        .map_err(|e| anyhow::anyhow!("cannot open the window: {e}"))?;
     match saved {
         Some(flag) if !flag.load(Ordering::Relaxed) => {
             eprintln!("error: the screenshot was not saved");

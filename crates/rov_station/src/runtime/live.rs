@@ -58,12 +58,30 @@ pub(crate) fn start(cfg: RuntimeConfig, models: ModelSet) -> Result<StationHandl
                     cfg.sim_seed,
                 )?;
                 let tap = TruthTap::default();
-                let runner = rov_vehicle::runner::spawn_with_truth(
-                    vehicle,
-                    Box::new(vehicle_end),
-                    RunnerConfig::default(),
-                    Arc::clone(&tap),
-                );
+                // The simulated vehicle stands for hardware at the other end of the
+                // tether: its thread gets the link threads' priority (a thread inherits
+                // its creator's scheduling, so it is created from a raised helper), or a
+                // busy GUI would delay its replies and fake a poor link.
+                let t = Arc::clone(&tap);
+                let (back, runner_rx) = std::sync::mpsc::channel();
+                let helper = spawn_named("station-vehicle-spawn", {
+                    let shared = Arc::clone(&shared);
+                    move || {
+                        let g = crate::runtime::priority::raise_current(RT_LINK);
+                        lock(&shared.priorities).push(("station-vehicle (sim)".into(), g));
+                        let runner = rov_vehicle::runner::spawn_with_truth(
+                            vehicle,
+                            Box::new(vehicle_end),
+                            RunnerConfig::default(),
+                            t,
+                        );
+                        let _ = back.send(runner);
+                    }
+                })?;
+                let _ = helper.join();
+                let runner = runner_rx.recv().map_err(|_| {
+                    RuntimeError::Thread("the simulated vehicle did not start".into())
+                })?;
                 truth_tap = Some(tap);
                 (Box::new(station_end), Source::Sim, Some(runner))
             }
