@@ -39,6 +39,21 @@ pub trait Backend {
     fn autodetect(&mut self, ports: Vec<String>) -> Receiver<AutodetectResult>;
     /// A fresh recording file name.
     fn recording_path(&mut self) -> PathBuf;
+    /// The folder recordings go to (the session browser lists it).
+    fn recordings_dir(&self) -> PathBuf;
+    /// Asks for a file to open (a native dialog). None: cancelled, or no dialog on this
+    /// desktop (the typed path stays).
+    fn pick_file(&mut self, _title: &str, _extensions: &[&str]) -> Option<PathBuf> {
+        None
+    }
+    /// Asks where to save a file.
+    fn save_file(&mut self, _title: &str, _default_name: &str) -> Option<PathBuf> {
+        None
+    }
+    /// Asks for a folder.
+    fn pick_folder(&mut self, _title: &str) -> Option<PathBuf> {
+        None
+    }
 }
 
 /// What an autodetect found.
@@ -181,6 +196,10 @@ pub struct StationApp {
     pub(crate) help_open: bool,
     /// The gamepad map being edited.
     pub(crate) pad_map: rov_station::runtime::pad::PadMap,
+    /// The recordings folder as a list.
+    pub(crate) browser: crate::sessions::SessionBrowser,
+    /// How many recordings the browser's last scan knew of (rescans after a new one).
+    pub(crate) browser_seen: usize,
 }
 
 impl std::fmt::Debug for StationApp {
@@ -234,6 +253,8 @@ impl StationApp {
             confirm_thruster_test: false,
             help_open: false,
             pad_map: rov_station::runtime::pad::PadMap::default(),
+            browser: crate::sessions::SessionBrowser::default(),
+            browser_seen: usize::MAX,
         };
         app.set_live(live);
         app
@@ -377,6 +398,17 @@ impl StationApp {
         self.message.as_deref()
     }
 
+    /// The session browser (for tests).
+    #[must_use]
+    pub fn browser(&self) -> &crate::sessions::SessionBrowser {
+        &self.browser
+    }
+
+    /// The session browser, to wait for its scan (tests).
+    pub fn browser_mut(&mut self) -> &mut crate::sessions::SessionBrowser {
+        &mut self.browser
+    }
+
     /// The lab state (for tests).
     #[must_use]
     pub fn lab(&self) -> &crate::lab::LabState {
@@ -483,6 +515,7 @@ impl StationApp {
         }
         self.lab.poll();
         self.conn.poll();
+        self.browser.poll();
     }
 
     /// One frame.

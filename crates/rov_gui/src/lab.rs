@@ -424,6 +424,20 @@ fn status_badge(s: Status) -> (&'static str, Color32) {
 }
 
 pub(crate) fn lab_tab(app: &mut StationApp, ui: &mut Ui) {
+    let browse = ui
+        .horizontal(|ui| {
+            ui.label(RichText::new("Model lab").strong().color(theme::SCALE));
+            ui.button("Browse…").clicked()
+        })
+        .inner;
+    if browse
+        && let Some(p) = app
+            .backend
+            .pick_file("Open measurements or a session", &["csv", "mcap"])
+    {
+        app.lab.path = p.display().to_string();
+        app.lab.start_load(&p);
+    }
     let lab = &mut app.lab;
     ui.horizontal(|ui| {
         let l = ui.label("Data (CSV or MCAP)");
@@ -435,8 +449,15 @@ pub(crate) fn lab_tab(app: &mut StationApp, ui: &mut Ui) {
         .labelled_by(l.id);
         let busy = lab.is_busy();
         if ui.add_enabled(!busy, egui::Button::new("Load")).clicked() {
-            let p = std::path::PathBuf::from(lab.path.trim());
-            lab.start_load(&p);
+            if lab.path.trim().is_empty() {
+                lab.error = Some(
+                    "no file chosen: type the path of a CSV or a session (.mcap), or use Browse"
+                        .into(),
+                );
+            } else {
+                let p = std::path::PathBuf::from(lab.path.trim());
+                lab.start_load(&p);
+            }
         }
         if let Some(last) = app.live_view.recording.last_file.clone()
             && ui

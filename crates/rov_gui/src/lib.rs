@@ -28,6 +28,7 @@ mod panels;
 pub mod plots;
 mod replay;
 pub mod screenshot;
+pub mod sessions;
 pub mod settings;
 pub mod theme;
 
@@ -103,6 +104,30 @@ impl Backend for RealBackend {
 
     fn recording_path(&mut self) -> PathBuf {
         rov_station::runtime::recording_path_in(&self.recordings_dir)
+    }
+
+    fn recordings_dir(&self) -> PathBuf {
+        self.recordings_dir.clone()
+    }
+
+    fn pick_file(&mut self, title: &str, extensions: &[&str]) -> Option<PathBuf> {
+        rfd::FileDialog::new()
+            .set_title(title)
+            .add_filter(extensions.join(", "), extensions)
+            .set_directory(&self.recordings_dir)
+            .pick_file()
+    }
+
+    fn save_file(&mut self, title: &str, default_name: &str) -> Option<PathBuf> {
+        rfd::FileDialog::new()
+            .set_title(title)
+            .set_file_name(default_name)
+            .set_directory(&self.recordings_dir)
+            .save_file()
+    }
+
+    fn pick_folder(&mut self, title: &str) -> Option<PathBuf> {
+        rfd::FileDialog::new().set_title(title).pick_folder()
     }
 }
 

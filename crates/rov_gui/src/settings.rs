@@ -122,6 +122,7 @@ fn video_section(ui: &mut Ui) {
 pub(crate) fn settings_tab(app: &mut StationApp, ui: &mut Ui) {
     let armed = app.live_view.snapshot.armed;
     crate::layout::scroll(app, ui, "settings_scroll", |app, ui| {
+        let mut choose_folder = false;
         ui.columns(2, |cols| {
             let [left, right] = cols else { return };
             let s: &mut StationSettings = &mut app.station;
@@ -187,6 +188,7 @@ pub(crate) fn settings_tab(app: &mut StationApp, ui: &mut Ui) {
                 {
                     s.recordings_dir = dir.into();
                 }
+                choose_folder = ui.button("Choose…").clicked();
             });
             left.checkbox(&mut s.record_on_connect, "Record every new connection");
             left.separator();
@@ -234,5 +236,8 @@ pub(crate) fn settings_tab(app: &mut StationApp, ui: &mut Ui) {
                 }
             });
         });
+        if choose_folder && let Some(d) = app.backend.pick_folder("Recordings folder") {
+            app.station.recordings_dir = d;
+        }
     });
 }

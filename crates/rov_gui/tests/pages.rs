@@ -247,11 +247,22 @@ fn the_gamepad_page_shows_raw_and_shaped_and_applies_the_shaping() {
 /// the space left by the side panel (no empty band). Snapshots of each.
 fn every_tab_fits(w: f32, h: f32) {
     let mut problems = Vec::new();
-    let mut r = common::rig_sized(&format!("size{w}.mcap"), egui::vec2(w, h));
+    let mut r = common::rig_sized(&format!("size{w}/size.mcap"), egui::vec2(w, h));
+    for e in std::fs::read_dir(common::tmp(&format!("size{w}")))
+        .unwrap()
+        .flatten()
+    {
+        if e.path().extension().is_some_and(|x| x == "mcap") && !e.path().ends_with("size.mcap") {
+            let _ = std::fs::remove_file(e.path());
+        }
+    }
     r.run(2.0);
     r.arm();
     r.click_nth("OFF", 0);
     r.run(1.0);
+    // A finished recording: the session browser's row is the same on every run.
+    r.click("STOP REC");
+    r.run(0.2);
     for (tab, name) in [
         (Tab::Fly, "fly"),
         (Tab::PreDive, "predive"),
@@ -263,6 +274,8 @@ fn every_tab_fits(w: f32, h: f32) {
         (Tab::Settings, "settings"),
     ] {
         r.harness.state_mut().set_tab(tab);
+        r.run(FRAME_S);
+        r.harness.state_mut().browser_mut().wait();
         r.run(FRAME_S);
         r.harness.step();
         for c in r.harness.state().clipped_widgets(&r.harness.ctx) {
@@ -294,4 +307,83 @@ fn every_tab_fits_at_1024x600() {
 #[test]
 fn every_tab_fits_at_1920x1080() {
     every_tab_fits(1920.0, 1080.0);
+}
+
+#[test]
+fn the_session_browser_lists_exports_replays_and_sends_to_the_lab() {
+    let mut r = rig("browser/first.mcap");
+    r.run(2.0);
+    r.harness.key_press(egui::Key::N);
+    r.run(FRAME_S);
+    r.harness.event(egui::Event::Text("pier leg B".into()));
+    r.run(FRAME_S);
+    r.harness.key_press(egui::Key::Enter);
+    r.run(2.0);
+    r.click("STOP REC");
+    r.run(0.3);
+    r.harness.state_mut().set_tab(Tab::Replay);
+    r.run(FRAME_S);
+    r.harness.state_mut().browser_mut().wait();
+    r.run(FRAME_S);
+    let entries = r.harness.state().browser().entries.clone();
+    assert_eq!(entries.len(), 1, "{entries:#?}");
+    let e = &entries[0];
+    assert_eq!(e.vehicle, "sim");
+    assert!(
+        e.duration_s > 3.0 && e.complete && e.size_bytes > 10_000,
+        "{e:?}"
+    );
+    assert!(e.notes.iter().any(|n| n.contains("pier leg B")), "{e:?}");
+    assert!(r.has_label_containing("pier leg B"));
+    // The folder and the wall-clock date depend on the machine and the moment.
+    let mut masks: Vec<egui::Rect> = r
+        .harness
+        .query_all_by_label_contains("-11-")
+        .chain(r.harness.query_all_by_label_contains("20"))
+        .filter(|n| {
+            let node = n.accesskit_node();
+            let l = node
+                .label()
+                .filter(|l| !l.is_empty())
+                .or_else(|| node.value());
+            l.is_some_and(|l| l.len() == 16 && l.as_bytes().get(4) == Some(&b'-'))
+        })
+        .map(|n| n.rect())
+        .collect();
+    masks.push(r.harness.get_by_label_contains("Recordings in").rect());
+    r.snapshot_masking("session_browser", &masks);
+    // Export through the save dialog (the test backend answers it).
+    let csv = common::tmp("browser/first-export.csv");
+    let _ = std::fs::remove_file(&csv);
+    *r.shared.dialog.lock().unwrap() = Some(csv.clone());
+    r.click("Export CSV");
+    let text = std::fs::read_to_string(&csv).unwrap();
+    assert!(
+        text.starts_with("t_s,") || text.contains("depth_m"),
+        "{}",
+        &text[..200.min(text.len())]
+    );
+    assert!(r.message().unwrap_or_default().contains("exported"));
+    // To the lab: loads in the background.
+    r.click("To lab");
+    assert_eq!(r.harness.state().tab(), Tab::Lab);
+    let t0 = std::time::Instant::now();
+    while r.harness.state().lab().is_busy() && t0.elapsed().as_secs() < 60 {
+        r.run(FRAME_S);
+    }
+    assert!(
+        r.harness.state().lab().data.is_some(),
+        "{:?}",
+        r.harness.state().lab().error
+    );
+    // Replay through the open dialog.
+    r.harness.state_mut().set_tab(Tab::Replay);
+    r.run(FRAME_S);
+    *r.shared.dialog.lock().unwrap() = Some(e.path.clone());
+    r.click("Browse…");
+    assert!(
+        r.harness.state().replay_view().is_some(),
+        "{:?}",
+        r.message()
+    );
 }

@@ -24,6 +24,8 @@ pub struct Shared {
     pub replays: Arc<Mutex<Vec<VirtualReplay>>>,
     pub stations: Arc<Mutex<Vec<VirtualStation>>>,
     pub recordings: Arc<Mutex<u32>>,
+    /// What the file dialogs answer next (None: cancelled).
+    pub dialog: Arc<Mutex<Option<PathBuf>>>,
 }
 
 pub struct TestBackend {
@@ -72,6 +74,22 @@ impl Backend for TestBackend {
         rx
     }
 
+    fn recordings_dir(&self) -> PathBuf {
+        self.rec.parent().unwrap().to_path_buf()
+    }
+
+    fn pick_file(&mut self, _title: &str, _ext: &[&str]) -> Option<PathBuf> {
+        self.shared.dialog.lock().unwrap().take()
+    }
+
+    fn save_file(&mut self, _title: &str, _name: &str) -> Option<PathBuf> {
+        self.shared.dialog.lock().unwrap().take()
+    }
+
+    fn pick_folder(&mut self, _title: &str) -> Option<PathBuf> {
+        self.shared.dialog.lock().unwrap().take()
+    }
+
     fn recording_path(&mut self) -> PathBuf {
         // The first recording takes the rig's name, later ones a numbered name.
         let mut n = self.shared.recordings.lock().unwrap();
@@ -105,6 +123,7 @@ pub fn rig_sized(rec_name: &str, size: egui::Vec2) -> Rig {
     let (st, handle) = VirtualStation::new(config()).unwrap();
     let shared = Shared::default();
     let rec = tmp(rec_name);
+    let _ = std::fs::create_dir_all(rec.parent().unwrap());
     let _ = std::fs::remove_file(&rec);
     let backend = TestBackend {
         shared: shared.clone(),
@@ -240,11 +259,48 @@ impl Rig {
         self.harness.snapshot(name);
     }
 
+    /// Snapshot with several regions masked.
+    pub fn snapshot_masking(&mut self, name: &str, rects: &[egui::Rect]) {
+        self.harness.event(Event::PointerGone);
+        self.harness.step();
+        for r in rects {
+            self.harness.mask(*r);
+        }
+        self.harness.snapshot(name);
+    }
+
     pub fn snapshot(&mut self, name: &str) {
         // Park the pointer outside the window so no hover effect is captured.
         self.harness.event(Event::PointerGone);
         self.harness.step();
+        for r in self.volatile_rects() {
+            self.harness.mask(r);
+        }
         self.harness.snapshot(name);
+    }
+
+    /// What depends on the machine or the wall clock: the session browser's folder and
+    /// dates (masked in snapshots).
+    pub fn volatile_rects(&self) -> Vec<egui::Rect> {
+        let mut out: Vec<egui::Rect> = self
+            .harness
+            .query_all_by_label_contains("20")
+            .filter(|n| {
+                let node = n.accesskit_node();
+                let l = node
+                    .label()
+                    .filter(|l| !l.is_empty())
+                    .or_else(|| node.value());
+                l.is_some_and(|l| l.len() == 16 && l.as_bytes().get(4) == Some(&b'-'))
+            })
+            .map(|n| n.rect())
+            .collect();
+        out.extend(
+            self.harness
+                .query_all_by_label_contains("Recordings in")
+                .map(|n| n.rect()),
+        );
+        out
     }
 
     /// Types into the text field labelled `label`.
