@@ -236,6 +236,13 @@ impl Link {
         &self.cfg
     }
 
+    /// Switches the raw-frame events ([`LinkEvent::FrameTx`], [`LinkEvent::FrameRx`]) on
+    /// or off (the station records frames only while a recording runs: each event holds
+    /// a copy of the frame).
+    pub fn set_record_frames(&mut self, on: bool) {
+        self.cfg.record_frames = on;
+    }
+
     /// Sets the command (wire level) sent from the next cycle on; the failsafe still
     /// gates it.
     pub fn set_command(&mut self, cmd: ControlBlock) {

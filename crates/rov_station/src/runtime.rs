@@ -345,6 +345,12 @@ pub(crate) struct Shared {
     pub clock: MonoClock,
     /// What each real-time thread got (thread name, grant).
     pub priorities: Mutex<Vec<(String, priority::Granted)>>,
+    /// Heap allocations of the control thread's wake-ups (tests only).
+    #[cfg(test)]
+    pub test_allocations: AtomicU64,
+    /// Control thread wake-ups counted (tests only).
+    #[cfg(test)]
+    pub test_wakeups: AtomicU64,
 }
 
 impl Shared {
@@ -363,6 +369,10 @@ impl Shared {
             running: AtomicBool::new(true),
             clock,
             priorities: Mutex::new(Vec::new()),
+            #[cfg(test)]
+            test_allocations: AtomicU64::new(0),
+            #[cfg(test)]
+            test_wakeups: AtomicU64::new(0),
         }
     }
 }

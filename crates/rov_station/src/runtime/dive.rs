@@ -231,7 +231,7 @@ impl Item {
 }
 
 /// One item as shown.
-#[derive(Debug, Clone, PartialEq, Default, Serialize)]
+#[derive(Debug, PartialEq, Default, Serialize)]
 pub struct ItemView {
     /// State.
     pub status: ItemStatus,
@@ -240,7 +240,7 @@ pub struct ItemView {
 }
 
 /// The checklist as shown.
-#[derive(Debug, Clone, PartialEq, Default, Serialize)]
+#[derive(Debug, PartialEq, Default, Serialize)]
 pub struct ChecklistView {
     /// Leak, compass, thrusters, depth zero, recording (in [`Item::ALL`] order).
     pub items: [ItemView; 5],
@@ -317,6 +317,15 @@ pub fn thruster_detail(r: &[ThrusterResult; 3]) -> String {
         .collect::<Vec<_>>()
         .join(", ")
 }
+
+crate::clone_fields!(ItemView { status, detail });
+
+crate::clone_fields!(ChecklistView {
+    items,
+    thrusters,
+    test_running,
+    recorded
+});
 
 #[cfg(test)]
 mod tests {

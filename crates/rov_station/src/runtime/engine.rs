@@ -91,6 +91,10 @@ pub(crate) struct Engine {
     virtual_centred: bool,
     /// Buttons held at the last tick (press edges).
     pad_buttons: u32,
+    /// The feedforward model's name of the last tick (reused).
+    last_model_name: String,
+    /// The inputs of the last automatic checklist update (updated on change only).
+    auto_key: Option<(u8, i64, i64, bool)>,
 }
 
 /// The names of the buttons held (an empty list, no allocation, when none is).
@@ -222,6 +226,8 @@ impl Engine {
             virtual_pad: None,
             virtual_centred: false,
             pad_buttons: 0,
+            last_model_name: String::new(),
+            auto_key: None,
             cfg,
         })
     }
@@ -328,11 +334,11 @@ impl Engine {
                 }
                 self.event(now_us, "link_state", sev, text);
             }
-            LinkEvent::FrameTx { bytes, time_us } => {
+            LinkEvent::FrameTx { bytes, time_us } if self.recorder.is_some() => {
                 let b = bytes.clone();
                 self.record(|t| RecordItem::Raw(Direction::Tx, t, b), *time_us);
             }
-            LinkEvent::FrameRx { bytes, time_us } => {
+            LinkEvent::FrameRx { bytes, time_us } if self.recorder.is_some() => {
                 let b = bytes.clone();
                 self.record(|t| RecordItem::Raw(Direction::Rx, t, b), *time_us);
             }
@@ -431,8 +437,14 @@ impl Engine {
                 self.event(now_us, "marker", Severity::Info, text);
             }
             RuntimeCommand::Checklist(c) => self.checklist(link, c, now_us),
-            RuntimeCommand::StartRecording(path) => self.start_recording(&path, now_us),
-            RuntimeCommand::StopRecording => self.stop_recording(now_us),
+            RuntimeCommand::StartRecording(path) => {
+                self.start_recording(&path, now_us);
+                link.set_record_frames(self.recorder.is_some());
+            }
+            RuntimeCommand::StopRecording => {
+                self.stop_recording(now_us);
+                link.set_record_frames(false);
+            }
             RuntimeCommand::Replay(_) => {}
             RuntimeCommand::PadMap(m) => {
                 self.pipeline.view.pilot.pad_map = m.clone();
@@ -736,6 +748,17 @@ impl Engine {
         let lim = self.alarms.config();
         let h = self.pipeline.view.health.humidity_pct;
         let rate = self.alarms.humidity_rate_pct_per_min();
+        // Only when something shown changes (no text formatted per tick).
+        let key = (
+            u8::from(h.is_some()) + 2 * u8::from(rate.is_some()),
+            h.map_or(0, |h| (h * 10.0).round() as i64),
+            rate.map_or(0, |r| (r * 10.0).round() as i64),
+            self.pipeline.view.recording.path.is_some(),
+        );
+        if self.auto_key == Some(key) {
+            return;
+        }
+        self.auto_key = Some(key);
         let (st, d) = match h {
             None => (
                 ItemStatus::Pending,
@@ -980,10 +1003,18 @@ impl Engine {
             heading_mode: axis_mode(hs.mode),
             depth_setpoint_m: ctl.depth_setpoint_m(),
             heading_setpoint_deg: ctl.heading_setpoint_deg(),
-            feedforward_model: if ctl.feedforward_enabled() {
-                ctl.model().name().to_string()
-            } else {
-                String::new()
+            // The model name is taken from the last record unless it changed (no
+            // allocation per tick).
+            feedforward_model: {
+                let name = if ctl.feedforward_enabled() {
+                    ctl.model().name()
+                } else {
+                    ""
+                };
+                if self.last_model_name != name {
+                    name.clone_into(&mut self.last_model_name);
+                }
+                std::mem::take(&mut self.last_model_name)
             },
         };
         let model_choice = ctl.model();
@@ -1026,7 +1057,11 @@ impl Engine {
         self.pipeline.observer(&observer);
         self.record(|t| RecordItem::Thrust(t, thrust), now_us);
         self.record(|t| RecordItem::Pilot(t, pilot), now_us);
-        self.record(|t| RecordItem::Autopilot(t, auto), now_us);
+        if self.recorder.is_some() {
+            let rec = auto.clone();
+            self.record(|t| RecordItem::Autopilot(t, rec), now_us);
+        }
+        self.last_model_name = auto.feedforward_model;
         self.record(|t| RecordItem::Observer(t, observer), now_us);
         if self
             .last_link_us
@@ -1179,7 +1214,9 @@ impl Engine {
         v.pilot.gain_pct = self.gain.pct();
         v.pilot.gain_index = self.gain.index();
         v.pilot.arm_progress = self.arm.progress(now_us).max(self.arm_pad.progress(now_us));
-        v.pilot.input = input.to_string();
+        if v.pilot.input != input {
+            input.clone_into(&mut v.pilot.input);
+        }
         match &self.recorder {
             Some(r) => {
                 v.recording.elapsed_s = now_us.saturating_sub(r.started_us()) as f64 * 1e-6;

@@ -278,7 +278,7 @@ impl PadState {
 }
 
 /// The map; see the module docs.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, PartialEq, Serialize)]
 pub struct PadMap {
     /// Axis for surge (forward positive).
     pub surge: PadAxis,
@@ -422,6 +422,15 @@ impl PadMap {
         (head, list(&self.buttons), list(&self.shifted))
     }
 }
+
+crate::clone_fields!(PadMap {
+    surge,
+    yaw,
+    vertical,
+    shift,
+    buttons,
+    shifted
+});
 
 #[cfg(test)]
 mod tests {

@@ -95,7 +95,8 @@ impl VirtualStation {
         let shared = Arc::new(Shared::new(period_us, MonoClock::new()));
         let (tx, rx) = command_channel();
         let mut link_cfg = cfg.link;
-        link_cfg.record_frames = true;
+        // Raw frames are recorded only while a recording runs (the engine switches them).
+        link_cfg.record_frames = false;
         let link = Link::new(link_cfg)?;
         let vehicle = Vehicle::with_model3(
             VehicleConfig {

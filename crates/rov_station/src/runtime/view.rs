@@ -23,7 +23,7 @@ use crate::runtime::history::HistorySample;
 use crate::runtime::timing::TickStats;
 
 /// Where the data comes from.
-#[derive(Debug, Clone, PartialEq, Eq, Default, Serialize)]
+#[derive(Debug, PartialEq, Eq, Default, Serialize)]
 pub enum Source {
     /// Not connected.
     #[default]
@@ -57,7 +57,7 @@ pub enum Quality {
 }
 
 /// Link quality as the pilot sees it.
-#[derive(Debug, Clone, PartialEq, Default, Serialize)]
+#[derive(Debug, PartialEq, Default, Serialize)]
 pub struct LinkView {
     /// "connected", "degraded" or "lost".
     pub health: String,
@@ -128,7 +128,7 @@ pub struct AxisView {
 }
 
 /// Gamepad state.
-#[derive(Debug, Clone, PartialEq, Eq, Default, Serialize)]
+#[derive(Debug, PartialEq, Eq, Default, Serialize)]
 pub enum PadStatus {
     /// Gamepad support not built or not started.
     #[default]
@@ -167,7 +167,7 @@ impl From<PilotInput> for SticksView {
 }
 
 /// Pilot-side state.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, PartialEq, Serialize)]
 pub struct PilotView {
     /// Raw sticks (before shaping).
     pub raw: SticksView,
@@ -223,7 +223,7 @@ pub struct CameraView {
 }
 
 /// Recording state.
-#[derive(Debug, Clone, PartialEq, Default, Serialize)]
+#[derive(Debug, PartialEq, Default, Serialize)]
 pub struct RecordingView {
     /// The file being written, when recording.
     pub path: Option<PathBuf>,
@@ -240,7 +240,7 @@ pub struct RecordingView {
 }
 
 /// Replay state.
-#[derive(Debug, Clone, PartialEq, Default, Serialize)]
+#[derive(Debug, PartialEq, Default, Serialize)]
 pub struct ReplayView {
     /// Position, s since the session start.
     pub position_s: f64,
@@ -275,7 +275,7 @@ pub struct IndexedEvent {
 }
 
 /// Everything the GUI draws, latest value; see the module docs.
-#[derive(Debug, Clone, Default, Serialize)]
+#[derive(Debug, Default, Serialize)]
 pub struct StationView {
     /// Data source.
     pub source: Source,
@@ -768,5 +768,121 @@ mod tests {
         }
         let at = amber_at.expect("a sustained 7 % error rate must show amber");
         assert!(at > 20.0 && at <= 25.0, "amber at {at}");
+    }
+}
+
+crate::clone_fields!(StationView {
+    source,
+    seq,
+    snapshot,
+    depth,
+    heading,
+    model,
+    feedforward,
+    prediction,
+    link,
+    health,
+    alarms,
+    pilot,
+    camera,
+    recording,
+    replay,
+    turns,
+    tick,
+    commands_dropped,
+    events,
+    last_refusal,
+    stale,
+    heave_mps,
+    hint,
+    control_priority,
+    alarm_limits,
+    dive,
+    checklist
+});
+
+crate::clone_fields!(LinkView {
+    health,
+    rtt_p50_ms,
+    rtt_p99_ms,
+    exchange_hz,
+    error_pct,
+    last_good_age_s,
+    errors_in_window,
+    exchanges,
+    errors,
+    quality
+});
+
+crate::clone_fields!(PilotView {
+    raw,
+    shaped,
+    gain_pct,
+    gain_index,
+    arm_progress,
+    pad,
+    input,
+    buttons,
+    pad_raw,
+    pad_map,
+    shift
+});
+
+crate::clone_fields!(RecordingView {
+    path,
+    elapsed_s,
+    messages,
+    dropped,
+    error,
+    last_file
+});
+
+crate::clone_fields!(ReplayView {
+    position_s,
+    duration_s,
+    playing,
+    speed,
+    messages,
+    warnings,
+    index,
+    tick_s
+});
+
+impl Clone for PadStatus {
+    fn clone(&self) -> Self {
+        match self {
+            Self::Off => Self::Off,
+            Self::Unavailable(e) => Self::Unavailable(e.clone()),
+            Self::NoPad => Self::NoPad,
+            Self::Connected(n) => Self::Connected(n.clone()),
+            Self::WaitingForCentre(n) => Self::WaitingForCentre(n.clone()),
+            Self::Stale => Self::Stale,
+        }
+    }
+    fn clone_from(&mut self, other: &Self) {
+        match (self, other) {
+            (Self::Unavailable(a), Self::Unavailable(b))
+            | (Self::Connected(a), Self::Connected(b))
+            | (Self::WaitingForCentre(a), Self::WaitingForCentre(b)) => a.clone_from(b),
+            (me, _) => *me = other.clone(),
+        }
+    }
+}
+
+impl Clone for Source {
+    fn clone(&self) -> Self {
+        match self {
+            Self::None => Self::None,
+            Self::Sim => Self::Sim,
+            Self::Serial(p) => Self::Serial(p.clone()),
+            Self::Replay(p) => Self::Replay(p.clone()),
+        }
+    }
+    fn clone_from(&mut self, other: &Self) {
+        match (self, other) {
+            (Self::Serial(a), Self::Serial(b)) => a.clone_from(b),
+            (Self::Replay(a), Self::Replay(b)) => a.clone_from(b),
+            (me, _) => *me = other.clone(),
+        }
     }
 }
