@@ -667,8 +667,10 @@ impl Link {
             };
             self.rx_items.push(item);
         }
-        let items = std::mem::take(&mut self.rx_items);
-        for item in items {
+        // Taken for the loop and put back after it, so its memory is reused (no
+        // allocation per received frame).
+        let mut items = std::mem::take(&mut self.rx_items);
+        for item in items.drain(..) {
             match item {
                 RxItem::Error(error) => {
                     if let Some(f) = self.inflight.as_mut() {
@@ -701,6 +703,9 @@ impl Link {
                     self.complete(reply, now_us);
                 }
             }
+        }
+        if self.rx_items.is_empty() {
+            self.rx_items = items;
         }
     }
 

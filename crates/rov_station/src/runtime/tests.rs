@@ -541,8 +541,8 @@ fn a_virtual_pad_is_mapped_like_a_real_one() {
 }
 
 /// The control thread's steady state (the link up, ticking, publishing; the GUI reading)
-/// stays nearly off the allocator; while recording, the records handed to the recorder
-/// add theirs. Counted per wake-up of the real control thread with allocation-counter.
+/// stays off the allocator but for the 0.5 s link statistics; while recording, the
+/// records handed to the recorder add theirs. Counted per wake-up of the real control thread with allocation-counter.
 #[test]
 fn the_control_loop_stays_off_the_allocator_in_steady_state() {
     let _serial = serial();
