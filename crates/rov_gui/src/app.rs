@@ -294,6 +294,13 @@ impl StationApp {
         self
     }
 
+    /// Where the Settings and Gamepad pages save (the station configuration).
+    pub(crate) fn config_target(&self) -> PathBuf {
+        self.config_path
+            .clone()
+            .unwrap_or_else(|| PathBuf::from("config/station.toml"))
+    }
+
     /// The pilot's settings as edited.
     #[must_use]
     pub fn station_settings(&self) -> &rov_station::runtime::settings::StationSettings {

@@ -200,10 +200,7 @@ pub(crate) fn gamepad_tab(app: &mut StationApp, ui: &mut Ui) {
                     app.live_cmd(RuntimeCommand::Shaping(app.shaping));
                     app.message = Some("gamepad map applied".into());
                 }
-                let target = app
-                    .config_path
-                    .clone()
-                    .unwrap_or_else(|| "config/station.toml".into());
+                let target = app.config_target();
                 if ui
                     .add_enabled(
                         !armed,

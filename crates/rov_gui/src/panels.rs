@@ -192,6 +192,15 @@ fn level(x: Option<f64>, warn: impl Fn(f64) -> bool, alarm: impl Fn(f64) -> bool
     }
 }
 
+/// The colour of a value against a pilot's limit: above it (`high`) or below it.
+fn against(x: Option<f64>, l: rov_station::runtime::Limit, high: bool) -> Color32 {
+    if high {
+        level(x, |v| v >= l.warn, |v| v >= l.alarm)
+    } else {
+        level(x, |v| v <= l.warn, |v| v <= l.alarm)
+    }
+}
+
 pub(crate) fn health_panel(app: &StationApp, ui: &mut Ui) {
     let v = app.shown().0;
     let h = &v.health;
@@ -205,15 +214,11 @@ pub(crate) fn health_panel(app: &StationApp, ui: &mut Ui) {
             let rate = h
                 .humidity_rate_pct_per_min
                 .map_or(String::new(), |r| format!("  ({r:+.1} %/min)"));
-            let hc = level(
-                h.humidity_pct,
-                |x| x >= lim.humidity_pct.warn,
-                |x| x >= lim.humidity_pct.alarm,
-            );
-            let rc = level(
+            let hc = against(h.humidity_pct, lim.humidity_pct, true);
+            let rc = against(
                 h.humidity_rate_pct_per_min,
-                |x| x >= lim.humidity_rise_pct_per_min.warn,
-                |x| x >= lim.humidity_rise_pct_per_min.alarm,
+                lim.humidity_rise_pct_per_min,
+                true,
             );
             let color = if rc == theme::RED || hc == theme::RED {
                 theme::RED
@@ -234,11 +239,7 @@ pub(crate) fn health_panel(app: &StationApp, ui: &mut Ui) {
             ui.end_row();
             dot_label(
                 ui,
-                level(
-                    h.internal_temp_c,
-                    |x| x >= lim.internal_temp_c.warn,
-                    |x| x >= lim.internal_temp_c.alarm,
-                ),
+                against(h.internal_temp_c, lim.internal_temp_c, true),
                 "Internal temp",
             );
             ui.label(
@@ -249,26 +250,10 @@ pub(crate) fn health_panel(app: &StationApp, ui: &mut Ui) {
                 .monospace(),
             );
             ui.end_row();
-            dot_label(
-                ui,
-                level(
-                    h.tether_v,
-                    |x| x <= lim.tether_v.warn,
-                    |x| x <= lim.tether_v.alarm,
-                ),
-                "Tether",
-            );
+            dot_label(ui, against(h.tether_v, lim.tether_v, false), "Tether");
             ui.label(RichText::new(opt(h.tether_v, 1, "V")).monospace());
             ui.end_row();
-            dot_label(
-                ui,
-                level(
-                    h.rail_v,
-                    |x| x <= lim.rail_12v_v.warn,
-                    |x| x <= lim.rail_12v_v.alarm,
-                ),
-                "12 V rail",
-            );
+            dot_label(ui, against(h.rail_v, lim.rail_12v_v, false), "12 V rail");
             ui.label(
                 RichText::new(format!(
                     "{}  {}",

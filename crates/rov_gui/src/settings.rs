@@ -213,10 +213,7 @@ pub(crate) fn settings_tab(app: &mut StationApp, ui: &mut Ui) {
                     app.live_cmd(RuntimeCommand::AlarmLimits(c));
                     app.message = Some("alarm limits applied to this dive".into());
                 }
-                let target = app
-                    .config_path
-                    .clone()
-                    .unwrap_or_else(|| "config/station.toml".into());
+                let target = app.config_target();
                 if ui
                     .add_enabled(
                         bad.is_none(),

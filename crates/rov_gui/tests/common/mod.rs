@@ -259,16 +259,6 @@ impl Rig {
         self.harness.snapshot(name);
     }
 
-    /// Snapshot with several regions masked.
-    pub fn snapshot_masking(&mut self, name: &str, rects: &[egui::Rect]) {
-        self.harness.event(Event::PointerGone);
-        self.harness.step();
-        for r in rects {
-            self.harness.mask(*r);
-        }
-        self.harness.snapshot(name);
-    }
-
     pub fn snapshot(&mut self, name: &str) {
         // Park the pointer outside the window so no hover effect is captured.
         self.harness.event(Event::PointerGone);

@@ -12,7 +12,7 @@ use rov_driver::{
     ByteSink, ByteSource, Link, MonoClock, PRO4_BAUD, SerialTransport, Transport, memory_pair,
 };
 use rov_vehicle::runner::TruthTap;
-use rov_vehicle::{RunnerConfig, Vehicle, VehicleConfig, VehicleRunner};
+use rov_vehicle::{RunnerConfig, VehicleRunner};
 
 use crate::runtime::engine::{Engine, Followup};
 use crate::runtime::priority::{RT_CONTROL, RT_LINK, RT_WATCHDOG};
@@ -84,13 +84,7 @@ pub(crate) fn start(cfg: RuntimeConfig, models: ModelSet) -> Result<StationHandl
         match &cfg.connection {
             Connection::Sim => {
                 let (station_end, vehicle_end) = memory_pair();
-                let vehicle = Vehicle::with_model3(
-                    VehicleConfig {
-                        faults: cfg.sim_faults.clone(),
-                        ..VehicleConfig::default()
-                    },
-                    cfg.sim_seed,
-                )?;
+                let vehicle = crate::runtime::sim::sim_vehicle(&cfg)?;
                 let tap = TruthTap::default();
                 // The simulated vehicle stands for hardware at the other end of the
                 // tether: its thread gets the link threads' priority (a thread inherits
