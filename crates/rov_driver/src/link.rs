@@ -245,6 +245,13 @@ impl Link {
         &self.cfg
     }
 
+    /// Switches the raw-frame events ([`LinkEvent::FrameTx`], [`LinkEvent::FrameRx`]) on
+    /// or off (the station records frames only while a recording runs: each event holds
+    /// a copy of the frame).
+    pub fn set_record_frames(&mut self, on: bool) {
+        self.cfg.record_frames = on;
+    }
+
     /// Sets the command (wire level) sent from the next cycle on; the failsafe still
     /// gates it.
     pub fn set_command(&mut self, cmd: ControlBlock) {
@@ -719,8 +726,10 @@ impl Link {
             };
             self.rx_items.push(item);
         }
-        let items = std::mem::take(&mut self.rx_items);
-        for item in items {
+        // Taken for the loop and put back after it, so its memory is reused (no
+        // allocation per received frame).
+        let mut items = std::mem::take(&mut self.rx_items);
+        for item in items.drain(..) {
             match item {
                 RxItem::Error(error) => {
                     if let Some(f) = self.inflight.as_mut() {
@@ -753,6 +762,9 @@ impl Link {
                     self.complete(reply, now_us);
                 }
             }
+        }
+        if self.rx_items.is_empty() {
+            self.rx_items = items;
         }
     }
 

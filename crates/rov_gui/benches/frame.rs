@@ -30,6 +30,10 @@ impl Backend for NoBackend {
     fn recording_path(&mut self) -> PathBuf {
         PathBuf::from("bench.mcap")
     }
+
+    fn recordings_dir(&self) -> PathBuf {
+        PathBuf::from(".")
+    }
 }
 
 /// One hour at 20 Hz of a vehicle doing depth and heading steps, with noise.

@@ -39,6 +39,21 @@ pub trait Backend {
     fn autodetect(&mut self, ports: Vec<String>) -> Receiver<AutodetectResult>;
     /// A fresh recording file name.
     fn recording_path(&mut self) -> PathBuf;
+    /// The folder recordings go to (the session browser lists it).
+    fn recordings_dir(&self) -> PathBuf;
+    /// Asks for a file to open (a native dialog). None: cancelled, or no dialog on this
+    /// desktop (the typed path stays).
+    fn pick_file(&mut self, _title: &str, _extensions: &[&str]) -> Option<PathBuf> {
+        None
+    }
+    /// Asks where to save a file.
+    fn save_file(&mut self, _title: &str, _default_name: &str) -> Option<PathBuf> {
+        None
+    }
+    /// Asks for a folder.
+    fn pick_folder(&mut self, _title: &str) -> Option<PathBuf> {
+        None
+    }
 }
 
 /// What an autodetect found.
@@ -64,15 +79,24 @@ pub enum Tab {
     Lab,
     /// Vehicle connection.
     Connection,
+    /// The pre-dive checklist.
+    PreDive,
+    /// Gamepad and keyboard setup.
+    Gamepad,
+    /// Units, port, recordings, alarm limits.
+    Settings,
 }
 
 impl Tab {
-    const ALL: [(Tab, &'static str); 5] = [
+    const ALL: [(Tab, &'static str); 8] = [
         (Tab::Fly, "Fly"),
+        (Tab::PreDive, "Pre-dive"),
         (Tab::Plots, "Plots"),
         (Tab::Replay, "Replay"),
         (Tab::Lab, "Model lab"),
         (Tab::Connection, "Connection"),
+        (Tab::Gamepad, "Gamepad"),
+        (Tab::Settings, "Settings"),
     ];
 }
 
@@ -146,6 +170,36 @@ pub struct StationApp {
     pub(crate) screenshot: Option<ScreenshotRequest>,
     pub(crate) repaint_ms: u64,
     pub(crate) styled: bool,
+    /// Start recording on every new connection (settings; on by default).
+    pub(crate) record_on_connect: bool,
+    /// The recordings of this station run, oldest first (kept across connections).
+    pub(crate) recordings: Vec<PathBuf>,
+    /// What fills the Fly tab's centre instead of the instrument layout (the camera).
+    pub(crate) main_view: Option<Box<dyn crate::fly::MainView>>,
+    /// The V key's choice: the instrument-only layout even when a main view exists.
+    pub(crate) instruments_only: bool,
+    /// What the last frame laid out (for the clipping checks).
+    pub(crate) layout: crate::layout::LayoutAudit,
+    /// The station configuration file the Settings tab saves to.
+    pub(crate) config_path: Option<PathBuf>,
+    /// The alarm limits being edited.
+    pub(crate) alarm_limits: rov_station::runtime::AlarmConfig,
+    /// The pilot's settings.
+    pub(crate) station: rov_station::runtime::settings::StationSettings,
+    /// The dive-log note being typed.
+    pub(crate) note_text: String,
+    /// Focus the note field next frame (N key).
+    pub(crate) focus_note: bool,
+    /// The pilot asked for the thruster test and must confirm.
+    pub(crate) confirm_thruster_test: bool,
+    /// The keys-and-buttons window is open (F1 or ?).
+    pub(crate) help_open: bool,
+    /// The gamepad map being edited.
+    pub(crate) pad_map: rov_station::runtime::pad::PadMap,
+    /// The recordings folder as a list.
+    pub(crate) browser: crate::sessions::SessionBrowser,
+    /// How many recordings the browser's last scan knew of (rescans after a new one).
+    pub(crate) browser_seen: usize,
 }
 
 impl std::fmt::Debug for StationApp {
@@ -186,9 +240,101 @@ impl StationApp {
             screenshot: None,
             repaint_ms: 33,
             styled: false,
+            record_on_connect: true,
+            recordings: Vec::new(),
+            main_view: None,
+            instruments_only: false,
+            layout: crate::layout::LayoutAudit::default(),
+            config_path: None,
+            alarm_limits: rov_station::runtime::AlarmConfig::default(),
+            station: rov_station::runtime::settings::StationSettings::default(),
+            note_text: String::new(),
+            focus_note: false,
+            confirm_thruster_test: false,
+            help_open: false,
+            pad_map: rov_station::runtime::pad::PadMap::default(),
+            browser: crate::sessions::SessionBrowser::default(),
+            browser_seen: usize::MAX,
         };
         app.set_live(live);
         app
+    }
+
+    /// Whether every new connection starts a recording (default on).
+    #[must_use]
+    pub fn with_record_on_connect(mut self, on: bool) -> Self {
+        self.record_on_connect = on;
+        self
+    }
+
+    /// The settings from the station configuration `path` (the Settings tab edits them
+    /// and saves them there).
+    #[must_use]
+    pub fn with_settings(
+        mut self,
+        path: PathBuf,
+        alarms: rov_station::runtime::AlarmConfig,
+        station: rov_station::runtime::settings::StationSettings,
+    ) -> Self {
+        self.config_path = Some(path);
+        self.alarm_limits = alarms;
+        self.station = station;
+        self
+    }
+
+    /// The gamepad map and stick shaping from the station configuration.
+    #[must_use]
+    pub fn with_gamepad(
+        mut self,
+        map: rov_station::runtime::pad::PadMap,
+        shaping: rov_station::runtime::StickShaping,
+    ) -> Self {
+        self.pad_map = map;
+        self.shaping = shaping;
+        self
+    }
+
+    /// Where the Settings and Gamepad pages save (the station configuration).
+    pub(crate) fn config_target(&self) -> PathBuf {
+        self.config_path
+            .clone()
+            .unwrap_or_else(|| PathBuf::from("config/station.toml"))
+    }
+
+    /// The pilot's settings as edited.
+    #[must_use]
+    pub fn station_settings(&self) -> &rov_station::runtime::settings::StationSettings {
+        &self.station
+    }
+
+    /// Sets what fills the Fly tab's centre (the camera picture); the instruments are
+    /// drawn over it, and V switches to the instrument-only layout.
+    pub fn set_main_view(&mut self, view: Box<dyn crate::fly::MainView>) {
+        self.main_view = Some(view);
+    }
+
+    /// The recordings made since the station started, oldest first.
+    #[must_use]
+    pub fn recordings(&self) -> &[PathBuf] {
+        &self.recordings
+    }
+
+    /// The most recent finished (or current) recording.
+    #[must_use]
+    pub fn last_recording(&self) -> Option<&PathBuf> {
+        self.recordings.last()
+    }
+
+    /// Controls the last frame cut off (see [`crate::layout`]).
+    #[must_use]
+    pub fn clipped_widgets(&self, ctx: &egui::Context) -> Vec<crate::layout::ClippedWidget> {
+        crate::layout::clipped_widgets(ctx, &self.layout, 1.0)
+    }
+
+    /// The Fly tab's main view rectangle in the last frame.
+    #[must_use]
+    pub fn main_view_rect(&self) -> Option<egui::Rect> {
+        self.layout.main_rect
     }
 
     /// Takes a screenshot after `after_s` seconds, saves it and closes the window.
@@ -259,6 +405,17 @@ impl StationApp {
         self.message.as_deref()
     }
 
+    /// The session browser (for tests).
+    #[must_use]
+    pub fn browser(&self) -> &crate::sessions::SessionBrowser {
+        &self.browser
+    }
+
+    /// The session browser, to wait for its scan (tests).
+    pub fn browser_mut(&mut self) -> &mut crate::sessions::SessionBrowser {
+        &mut self.browser
+    }
+
     /// The lab state (for tests).
     #[must_use]
     pub fn lab(&self) -> &crate::lab::LabState {
@@ -269,7 +426,30 @@ impl StationApp {
         self.live = live;
         self.live_hist = History::default();
         self.live_view = StationView::default();
+        if self.record_on_connect && self.live.is_some() {
+            // Every connection records from its start, unless the pilot switched it
+            // off in the settings; the REC control shows which.
+            let path = self.backend.recording_path();
+            self.live_cmd(RuntimeCommand::StartRecording(path));
+        }
         self.poll();
+    }
+
+    /// Makes `live` the live station (a new connection: it records when recording on
+    /// connection is on).
+    pub fn connect_handle(&mut self, live: Option<StationHandle>) {
+        self.set_live(live);
+    }
+
+    /// Opens a session for replay, or says what is missing when `text` is empty.
+    pub(crate) fn open_replay_text(&mut self, text: &str) {
+        let t = text.trim();
+        if t.is_empty() {
+            self.message =
+                Some("no file chosen: type the path of a session (.mcap) or use Browse".into());
+            return;
+        }
+        self.open_replay(Path::new(t));
     }
 
     /// Opens a session for replay (errors go to the message line).
@@ -289,6 +469,12 @@ impl StationApp {
     pub fn close_replay(&mut self) {
         self.replay = None;
         self.replay_hist = History::default();
+    }
+
+    /// Sends a command to the live station (what the pages do; also for tests and
+    /// other input devices).
+    pub fn command(&mut self, c: RuntimeCommand) {
+        self.live_cmd(c);
     }
 
     /// Sends a command to the live station.
@@ -320,6 +506,15 @@ impl StationApp {
         if let Some(h) = &self.live {
             self.live_view = h.view();
             h.sync_history(&mut self.live_hist);
+            let r = &self.live_view.recording;
+            for p in [r.last_file.as_ref(), r.path.as_ref()]
+                .into_iter()
+                .flatten()
+            {
+                if !self.recordings.contains(p) {
+                    self.recordings.push(p.clone());
+                }
+            }
         }
         if let Some(h) = &self.replay {
             self.replay_view = h.view();
@@ -327,6 +522,7 @@ impl StationApp {
         }
         self.lab.poll();
         self.conn.poll();
+        self.browser.poll();
     }
 
     /// One frame.
@@ -336,6 +532,8 @@ impl StationApp {
             self.styled = true;
         }
         self.poll();
+        self.layout.scroll_viewports.clear();
+        self.layout.main_rect = None;
         self.keyboard(ui);
         self.top_bar(ui);
         self.alarm_bar(ui);
@@ -349,7 +547,11 @@ impl StationApp {
             Tab::Replay => crate::replay::replay_tab(self, ui),
             Tab::Lab => crate::lab::lab_tab(self, ui),
             Tab::Connection => crate::connection::connection_tab(self, ui),
+            Tab::Settings => crate::settings::settings_tab(self, ui),
+            Tab::PreDive => crate::dive::predive_tab(self, ui),
+            Tab::Gamepad => crate::pad_page::gamepad_tab(self, ui),
         });
+        crate::help::help_window(self, ui.ctx());
         self.screenshot_step(ui.ctx());
         ui.ctx()
             .request_repaint_after(Duration::from_millis(self.repaint_ms));
@@ -367,6 +569,39 @@ impl StationApp {
                 self.kb_active = false;
             }
             return;
+        }
+        let (marker, note, help) = ui.input(|i| {
+            (
+                i.key_pressed(Key::M),
+                i.key_pressed(Key::N),
+                i.key_pressed(Key::F1) || i.key_pressed(Key::Questionmark),
+            )
+        });
+        if marker && self.replay.is_none() {
+            self.live_cmd(RuntimeCommand::Marker);
+        }
+        if note {
+            self.tab = Tab::Fly;
+            self.focus_note = true;
+        }
+        if help {
+            self.help_open = !self.help_open;
+        }
+        let (step, toggle_view) = ui.input(|i| {
+            let step = if i.key_pressed(Key::Period) {
+                Some(rov_station::runtime::ReplayCommand::Step)
+            } else if i.key_pressed(Key::Comma) {
+                Some(rov_station::runtime::ReplayCommand::StepBack)
+            } else {
+                None
+            };
+            (step, i.key_pressed(Key::V))
+        });
+        if let Some(c) = step {
+            self.replay_cmd(c);
+        }
+        if toggle_view && self.main_view.is_some() {
+            self.instruments_only = !self.instruments_only;
         }
         let (sticks, space, esc, gain, hold_d, hold_h) = ui.input(|i| {
             let axis = |pos: Key, neg: Key| {
@@ -435,7 +670,12 @@ impl StationApp {
                     } else {
                         ("SAFE", theme::GREEN)
                     };
-                    ui.label(RichText::new(state).size(22.0).strong().color(color));
+                    ui.vertical(|ui| {
+                        ui.label(RichText::new(state).size(22.0).strong().color(color));
+                        if let Some(h) = &v.hint {
+                            ui.label(RichText::new(h).small().strong().color(theme::AMBER));
+                        }
+                    });
                     ui.separator();
                     // Gain steps, always visible.
                     ui.vertical(|ui| {
@@ -500,37 +740,53 @@ impl StationApp {
             });
     }
 
+    /// The alarm banner under the top bar: red while an unacknowledged alarm is listed,
+    /// amber for warnings only, brown once everything is acknowledged; each entry says
+    /// what, how serious, the value and the limit crossed, with its ACK button.
     fn alarm_bar(&mut self, ui: &mut Ui) {
+        use rov_station::runtime::AlarmLevel;
         let alarms = self.live_view.alarms.clone();
         let failsafe = self.live_view.snapshot.alarm.clone();
         if alarms.is_empty() && failsafe.is_none() {
             return;
         }
-        let unacked = alarms.iter().any(|a| !a.acknowledged);
-        let fill = if unacked {
-            theme::RED
+        let unacked = |lvl: AlarmLevel| alarms.iter().any(|a| !a.acknowledged && a.level == lvl);
+        let (fill, title) = if unacked(AlarmLevel::Alarm) || failsafe.is_some() {
+            (theme::RED, "ALARM")
+        } else if unacked(AlarmLevel::Warning) {
+            (Color32::from_rgb(200, 120, 0), "WARNING")
         } else {
-            Color32::from_rgb(110, 70, 10)
+            (Color32::from_rgb(90, 60, 15), "ACKNOWLEDGED")
         };
         egui::Panel::top("alarm_bar")
             .frame(egui::Frame::new().fill(fill).inner_margin(6.0))
             .show(ui, |ui| {
                 ui.horizontal_wrapped(|ui| {
                     ui.label(
-                        RichText::new("ALARM")
+                        RichText::new(title)
                             .size(20.0)
                             .strong()
                             .color(Color32::WHITE),
                     );
                     for a in &alarms {
                         let state = if a.active { "" } else { " (cleared)" };
-                        let text = format!("{}{state}", a.kind.text());
+                        let level = match a.level {
+                            AlarmLevel::Alarm => "",
+                            AlarmLevel::Warning => " warning",
+                        };
+                        let unit = a.kind.unit();
+                        let value = match (a.value, a.limit) {
+                            (Some(v), Some(l)) => format!(" {v:.1} {unit} (limit {l:.1})"),
+                            (Some(v), None) => format!(" {v:.1} {unit}"),
+                            _ => String::new(),
+                        };
+                        let text = format!("{}{level}{value}{state}", a.kind.text());
                         let color = if a.acknowledged {
-                            theme::AMBER
+                            Color32::from_gray(200)
                         } else {
                             Color32::WHITE
                         };
-                        ui.label(RichText::new(text).size(18.0).strong().color(color));
+                        ui.label(RichText::new(text).size(17.0).strong().color(color));
                         if !a.acknowledged && ui.button("ACK").clicked() {
                             self.live_cmd(RuntimeCommand::AckAlarm(Some(a.kind)));
                         }
@@ -595,7 +851,7 @@ impl StationApp {
     }
 
     fn screenshot_step(&mut self, ctx: &egui::Context) {
-        let Some(req) = &mut self.screenshot else {
+        let Some(req) = self.screenshot.as_mut() else {
             return;
         };
         let now = std::time::Instant::now();
@@ -607,6 +863,17 @@ impl StationApp {
         if !req.state.requested && now.duration_since(started).as_secs_f64() >= req.after_s {
             req.state.requested = true;
             let path = req.path.clone();
+            // The layout check of this very frame, next to the PNG.
+            let report = serde_json::json!({
+                "window": [ctx.content_rect().width(), ctx.content_rect().height()],
+                "main_view": self.layout.main_rect.map(|r| [r.min.x, r.min.y, r.max.x, r.max.y]),
+                "clipped": crate::layout::clipped_widgets(ctx, &self.layout, 1.0),
+                "link_quality": format!("{:?}", self.live_view.link.quality),
+                "link_errors": self.live_view.link.errors,
+            });
+            if let Err(e) = std::fs::write(path.with_extension("layout.json"), report.to_string()) {
+                eprintln!("layout report: {e}");
+            }
             let done = Arc::clone(&req.state.done);
             let ok = Arc::clone(&req.state.ok);
             let c = ctx.clone();

@@ -1,24 +1,44 @@
-//! The Fly tab: the instruments in the middle, the autopilot, health, link, camera and
-//! stick panels on the right.
+//! The Fly tab: the main view in the middle, the autopilot, health, link, camera and
+//! stick panels on the right (scrolling when the window is short).
+//!
+//! The central area is one replaceable *main view*: by default the instrument layout
+//! (depth tape, heading tape, horizon, pitch glyph, thrust bars). A [`MainView`] (the
+//! camera picture, issue 12) can take the area instead; the instruments are then drawn
+//! as a HUD over it with translucent backgrounds ([`instruments::set_overlay`]), and
+//! the V key switches back to the instrument-only layout.
 
-use egui::{Ui, vec2};
+use egui::{Rect, Ui, UiBuilder, pos2, vec2};
 use rov_control::ModeCommand;
 use rov_station::StationCommand;
-use rov_station::runtime::RuntimeCommand;
+use rov_station::runtime::{RuntimeCommand, StationView};
 
 use crate::app::StationApp;
 use crate::instruments::{self, DepthTape, HeadingTape, TapeAction};
 
-/// Width of the control column.
-pub const SIDE_WIDTH: f32 = 340.0;
+/// Width of the control column (between these, a share of the window).
+pub const SIDE_WIDTH_MIN: f32 = 300.0;
+/// Widest control column.
+pub const SIDE_WIDTH_MAX: f32 = 380.0;
+
+/// What fills the Fly tab's central area instead of the instrument layout (the camera
+/// picture): painted first, with the instruments drawn over it.
+pub trait MainView {
+    /// Paints the view into `rect` for the station state `view`.
+    fn paint(&mut self, ui: &mut Ui, rect: Rect, view: &StationView);
+    /// A short name for the help and the layout toggle ("camera").
+    fn name(&self) -> &str;
+}
 
 pub(crate) fn fly(app: &mut StationApp, ui: &mut Ui) {
+    let side = (ui.available_width() * 0.3).clamp(SIDE_WIDTH_MIN, SIDE_WIDTH_MAX);
     egui::Panel::right("fly_side")
-        .exact_size(SIDE_WIDTH)
+        .exact_size(side)
         .resizable(false)
         .show(ui, |ui| {
-            egui::ScrollArea::vertical().show(ui, |ui| {
+            crate::layout::scroll(app, ui, "fly_side_scroll", |app, ui| {
                 crate::panels::autopilot_panel(app, ui);
+                ui.separator();
+                crate::dive::dive_panel(app, ui);
                 ui.separator();
                 crate::panels::health_panel(app, ui);
                 ui.separator();
@@ -29,61 +49,108 @@ pub(crate) fn fly(app: &mut StationApp, ui: &mut Ui) {
                 crate::panels::sticks_panel(app, ui);
             });
         });
-    egui::CentralPanel::default().show(ui, |ui| instruments_area(app, ui));
+    egui::CentralPanel::default().show(ui, |ui| main_area(app, ui));
 }
 
-fn instruments_area(app: &mut StationApp, ui: &mut Ui) {
+/// The central area: the main view with the HUD over it, or the instrument layout.
+fn main_area(app: &mut StationApp, ui: &mut Ui) {
+    let rect = ui.available_rect_before_wrap();
+    app.layout.main_rect = Some(rect);
     let v = app.shown().0.clone();
-    let avail = ui.available_size();
+    let picture = !app.instruments_only && app.main_view.is_some();
+    if let (true, Some(mv)) = (picture, app.main_view.as_mut()) {
+        mv.paint(ui, rect, &v);
+        instruments::set_overlay(ui, true);
+        hud_overlay(app, ui, rect, &v);
+        instruments::set_overlay(ui, false);
+    } else {
+        instrument_layout(app, ui, &v);
+    }
+}
+
+fn depth_tape(app: &mut StationApp, ui: &mut Ui, v: &StationView, size: egui::Vec2) {
     let replay = app.replay.is_some();
-    ui.horizontal_top(|ui| {
-        // Depth tape with the vertical thrust bar.
-        let tape = DepthTape {
-            depth_m: v.snapshot.depth_m,
-            setpoint_m: v.depth.setpoint,
-            vertical_pct: v.snapshot.thrust.vertical_pct,
-            overridden: v.depth.overridden,
-            half_range_m: 5.0,
-        };
-        match tape.show(ui, vec2(140.0, avail.y - 8.0), app.depth_drag) {
-            Some(TapeAction::Dragging(d)) if !replay => app.depth_drag = Some(d),
-            Some(TapeAction::Set(d)) if !replay => {
-                app.depth_drag = None;
-                app.live_cmd(RuntimeCommand::Station(StationCommand::Mode(
-                    ModeCommand::SetDepth { depth_m: d },
-                )));
-            }
-            _ => {}
+    let tape = DepthTape {
+        depth_m: v.snapshot.depth_m,
+        setpoint_m: v.depth.setpoint,
+        vertical_pct: v.snapshot.thrust.vertical_pct,
+        overridden: v.depth.overridden,
+        half_range_m: 5.0,
+        heave_mps: v.heave_mps,
+        stale: v.stale.depth,
+        feet: app.station.depth_unit == rov_station::runtime::settings::DepthUnit::Feet,
+    };
+    match tape.show(ui, size, app.depth_drag) {
+        Some(TapeAction::Dragging(d)) if !replay => app.depth_drag = Some(d),
+        Some(TapeAction::Set(d)) if !replay => {
+            app.depth_drag = None;
+            app.live_cmd(RuntimeCommand::Station(StationCommand::Mode(
+                ModeCommand::SetDepth { depth_m: d },
+            )));
         }
+        _ => {}
+    }
+}
+
+fn heading_tape(app: &mut StationApp, ui: &mut Ui, v: &StationView, size: egui::Vec2) {
+    let replay = app.replay.is_some();
+    let ht = HeadingTape {
+        heading_deg: v.snapshot.heading_deg,
+        setpoint_deg: v.heading.setpoint,
+        overridden: v.heading.overridden,
+        turns: v.turns,
+        stale: v.stale.heading,
+    };
+    match ht.show(ui, size, app.heading_drag) {
+        Some(TapeAction::Dragging(d)) if !replay => app.heading_drag = Some(d),
+        Some(TapeAction::Set(d)) if !replay => {
+            app.heading_drag = None;
+            app.live_cmd(RuntimeCommand::Station(StationCommand::Mode(
+                ModeCommand::SetHeading { heading_deg: d },
+            )));
+        }
+        _ => {}
+    }
+}
+
+/// Width of the pitch-glyph and thrust column.
+const COLUMN_W: f32 = 180.0;
+
+/// The instrument-only layout: depth tape left, heading tape on top, horizon filling the
+/// rest, pitch glyph and thrust bars in a column on the right. Every size follows the
+/// area, so nothing is clipped at 1024×600 and no band stays empty at 1920×1080.
+fn instrument_layout(app: &mut StationApp, ui: &mut Ui, v: &StationView) {
+    let avail = ui.available_size();
+    let tape_w = (avail.x * 0.16).clamp(130.0, 170.0);
+    ui.horizontal_top(|ui| {
+        depth_tape(app, ui, v, vec2(tape_w, avail.y - 4.0));
         ui.vertical(|ui| {
             let w = ui.available_width();
-            let ht = HeadingTape {
-                heading_deg: v.snapshot.heading_deg,
-                setpoint_deg: v.heading.setpoint,
-                overridden: v.heading.overridden,
-                turns: v.turns,
-            };
-            match ht.show(ui, vec2(w, 66.0), app.heading_drag) {
-                Some(TapeAction::Dragging(d)) if !replay => app.heading_drag = Some(d),
-                Some(TapeAction::Set(d)) if !replay => {
-                    app.heading_drag = None;
-                    app.live_cmd(RuntimeCommand::Station(StationCommand::Mode(
-                        ModeCommand::SetHeading { heading_deg: d },
-                    )));
-                }
-                _ => {}
-            }
-            let rest_h = ui.available_height() - 8.0;
+            heading_tape(app, ui, v, vec2(w, 66.0));
+            let rest_h = (ui.available_height() - 4.0).max(160.0);
             ui.horizontal_top(|ui| {
-                let side = (w - 190.0).min(rest_h).max(120.0);
-                instruments::horizon(ui, side, v.snapshot.pitch_deg, v.snapshot.roll_deg);
+                let col = COLUMN_W.min(w * 0.3);
+                let hz_w = (w - col - ui.spacing().item_spacing.x).max(160.0);
+                instruments::horizon(
+                    ui,
+                    vec2(hz_w, rest_h),
+                    v.snapshot.pitch_deg,
+                    v.snapshot.roll_deg,
+                    v.stale.attitude,
+                );
                 ui.vertical(|ui| {
-                    instruments::pitch_glyph(ui, vec2(180.0, 120.0), v.snapshot.pitch_deg);
+                    let glyph_h = (rest_h * 0.3).clamp(90.0, 140.0);
+                    instruments::pitch_glyph(
+                        ui,
+                        vec2(col, glyph_h),
+                        v.snapshot.pitch_deg,
+                        v.stale.attitude,
+                    );
                     let th = v.snapshot.thrust;
-                    let h = (side - 126.0).max(120.0);
+                    let h = (rest_h - glyph_h - ui.spacing().item_spacing.y).max(100.0);
                     instruments::thruster_bars(
                         ui,
-                        vec2(180.0, h),
+                        vec2(col, h),
                         th.port_pct,
                         th.starboard_pct,
                         th.vertical_pct,
@@ -91,5 +158,53 @@ fn instruments_area(app: &mut StationApp, ui: &mut Ui) {
                 });
             });
         });
+    });
+}
+
+/// The instruments over a picture: heading tape along the top, depth tape on the left,
+/// the horizon line across the middle, thrust bars bottom right.
+fn hud_overlay(app: &mut StationApp, ui: &mut Ui, rect: Rect, v: &StationView) {
+    let m = 6.0;
+    let tape_w = 130.0;
+    let top = Rect::from_min_size(
+        rect.min + vec2(tape_w + 2.0 * m, m),
+        vec2((rect.width() - tape_w - 3.0 * m).max(100.0), 60.0),
+    );
+    let left = Rect::from_min_size(
+        rect.min + vec2(m, m),
+        vec2(tape_w, (rect.height() - 2.0 * m).max(100.0)),
+    );
+    let bars = Rect::from_min_max(
+        pos2(rect.max.x - 150.0 - m, rect.max.y - 170.0 - m),
+        rect.max - vec2(m, m),
+    );
+    let mid = Rect::from_min_max(
+        pos2(left.max.x + m, top.max.y + m),
+        pos2(bars.min.x - m, rect.max.y - m),
+    );
+    ui.scope_builder(UiBuilder::new().max_rect(top), |ui| {
+        heading_tape(app, ui, v, top.size());
+    });
+    ui.scope_builder(UiBuilder::new().max_rect(left), |ui| {
+        depth_tape(app, ui, v, left.size());
+    });
+    ui.scope_builder(UiBuilder::new().max_rect(mid), |ui| {
+        instruments::horizon(
+            ui,
+            mid.size(),
+            v.snapshot.pitch_deg,
+            v.snapshot.roll_deg,
+            v.stale.attitude,
+        );
+    });
+    ui.scope_builder(UiBuilder::new().max_rect(bars), |ui| {
+        let th = v.snapshot.thrust;
+        instruments::thruster_bars(
+            ui,
+            bars.size(),
+            th.port_pct,
+            th.starboard_pct,
+            th.vertical_pct,
+        );
     });
 }

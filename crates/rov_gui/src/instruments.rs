@@ -5,13 +5,29 @@
 //! Instruments return what the pilot did with them (a dragged setpoint); they never hold
 //! timers: the arm button only reports "held" each frame and the runtime times the hold.
 
-use egui::{Align2, Color32, Rect, Sense, Shape, Stroke, StrokeKind, Ui, Vec2, pos2, vec2};
+use egui::{Align2, Color32, FontId, Rect, Sense, Shape, Stroke, StrokeKind, Ui, Vec2, pos2, vec2};
 
 use crate::theme;
 
+/// Whether instruments are drawn as an overlay on a picture (translucent backgrounds);
+/// set by the Fly tab's main view for the widgets it draws over the video.
+pub fn set_overlay(ui: &Ui, on: bool) {
+    ui.data_mut(|d| d.insert_temp(egui::Id::unique("hud_overlay"), on));
+}
+
+fn overlay(ui: &Ui) -> bool {
+    ui.data(|d| d.get_temp::<bool>(egui::Id::unique("hud_overlay")))
+        .unwrap_or(false)
+}
+
 fn frame(ui: &Ui, rect: Rect) {
     let p = ui.painter();
-    p.rect_filled(rect, 4.0, theme::BG);
+    let fill = if overlay(ui) {
+        Color32::from_black_alpha(110)
+    } else {
+        theme::BG
+    };
+    p.rect_filled(rect, 4.0, fill);
     p.rect_stroke(
         rect,
         4.0,
@@ -22,6 +38,36 @@ fn frame(ui: &Ui, rect: Rect) {
 
 fn fmt_opt(v: Option<f64>, digits: usize, unit: &str) -> String {
     v.map_or_else(|| "---".to_string(), |x| format!("{x:.digits$}{unit}"))
+}
+
+/// Marks an instrument whose data is stale (as aviation displays do): the instrument is
+/// dimmed, crossed out in red and says NO DATA, so a frozen value cannot pass for a live
+/// one.
+pub fn stale_overlay(painter: &egui::Painter, rect: Rect) {
+    painter.rect_filled(rect, 4.0, Color32::from_black_alpha(150));
+    let r = rect.shrink(6.0);
+    let red = Stroke::new(2.0, theme::RED.gamma_multiply(0.8));
+    painter.line_segment([r.left_top(), r.right_bottom()], red);
+    painter.line_segment([r.right_top(), r.left_bottom()], red);
+    let plate = Rect::from_center_size(rect.center(), vec2(96.0_f32.min(rect.width()), 24.0));
+    painter.rect_filled(plate, 3.0, Color32::BLACK);
+    painter.rect_stroke(plate, 3.0, Stroke::new(1.5, theme::RED), StrokeKind::Inside);
+    painter.text(
+        plate.center(),
+        Align2::CENTER_CENTER,
+        "NO DATA",
+        FontId::monospace(15.0),
+        theme::RED,
+    );
+}
+
+/// The accessible label of an instrument: its name, then its value or NO DATA.
+fn a11y(name: &str, stale: bool, value: impl FnOnce() -> String) -> String {
+    if stale {
+        format!("{name}: NO DATA")
+    } else {
+        format!("{name}: {}", value())
+    }
 }
 
 /// Depth tape inputs.
@@ -37,7 +83,16 @@ pub struct DepthTape {
     pub overridden: bool,
     /// Half range shown, m.
     pub half_range_m: f64,
+    /// Vertical speed, m/s, positive down (None: unknown).
+    pub heave_mps: Option<f64>,
+    /// No current data: drawn dimmed with NO DATA.
+    pub stale: bool,
+    /// Show feet instead of metres.
+    pub feet: bool,
 }
+
+/// The vertical-speed trend looks this far ahead, s.
+pub const TREND_S: f64 = 6.0;
 
 /// What the pilot did on the depth tape.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -49,27 +104,51 @@ pub enum TapeAction {
 }
 
 impl DepthTape {
-    /// Draws the tape in `size`; drag vertically on it to choose a setpoint.
+    /// Draws the tape in `size`; drag vertically on it to choose a setpoint. Right of
+    /// the scale, the vertical thrust command (labelled); under the depth box the
+    /// vertical speed, and along the scale its trend: where the vehicle will be in
+    /// [`TREND_S`] at this speed.
     pub fn show(&self, ui: &mut Ui, size: Vec2, drag: Option<f64>) -> Option<TapeAction> {
         let (resp, painter) = ui.allocate_painter(size, Sense::drag());
-        resp.widget_info(|| egui::WidgetInfo::labeled(egui::Role::Slider, true, "depth tape"));
+        let label = a11y("depth tape", self.stale, || {
+            format!(
+                "{} m, {}, vertical thrust {:+.0} %",
+                fmt_opt(self.depth_m, 2, ""),
+                vertical_speed_text(self.heave_mps),
+                self.vertical_pct
+            )
+        });
+        resp.widget_info(|| egui::WidgetInfo::labeled(egui::Role::Slider, true, &label));
         let rect = resp.rect;
         frame(ui, rect);
         let bar_w = 16.0;
         let tape = Rect::from_min_max(
-            rect.min + vec2(2.0, 24.0),
-            pos2(rect.max.x - bar_w - 8.0, rect.max.y - 4.0),
+            rect.min + vec2(2.0, 44.0),
+            pos2(rect.max.x - bar_w - 8.0, rect.max.y - 18.0),
         );
         let bar = Rect::from_min_max(
             pos2(rect.max.x - bar_w - 4.0, tape.min.y),
             pos2(rect.max.x - 4.0, tape.max.y),
         );
+        // Display unit: k display units per metre.
+        let (k, unit) = if self.feet {
+            (crate::settings::FT_PER_M, "ft")
+        } else {
+            (1.0, "m")
+        };
         painter.text(
-            pos2(rect.center().x, rect.min.y + 11.0),
+            pos2(tape.center().x, rect.min.y + 11.0),
             Align2::CENTER_CENTER,
-            "DEPTH m",
+            format!("DEPTH {unit}"),
             theme::small(),
             theme::SCALE,
+        );
+        painter.text(
+            pos2(bar.center().x, rect.min.y + 11.0),
+            Align2::CENTER_CENTER,
+            "THR",
+            theme::small(),
+            theme::THRUST,
         );
         let centre_m = self.depth_m.unwrap_or(0.0);
         let half = self.half_range_m.max(0.5);
@@ -77,13 +156,15 @@ impl DepthTape {
         let y_of = |d: f64| tape.center().y + ((d - centre_m) as f32) * px_per_m;
         let d_of = |y: f32| centre_m + f64::from((y - tape.center().y) / px_per_m);
         let clip = painter.with_clip_rect(tape);
-        // Ticks every 0.5 m, labels every metre.
-        let first = ((centre_m - half) * 2.0).floor() as i64;
-        let last = ((centre_m + half) * 2.0).ceil() as i64;
-        for k in first..=last {
-            let d = k as f64 * 0.5;
+        // Ticks every 0.5 m (labels every metre), or every 2 ft (labels every 4 ft).
+        let step = if self.feet { 2.0 } else { 0.5 };
+        let first = ((centre_m - half) * k / step).floor() as i64;
+        let last = ((centre_m + half) * k / step).ceil() as i64;
+        for i in first..=last {
+            let shown = i as f64 * step;
+            let d = shown / k;
             let y = y_of(d);
-            let major = k % 2 == 0;
+            let major = i % 2 == 0;
             let len = if major { 14.0 } else { 8.0 };
             clip.line_segment(
                 [pos2(tape.min.x, y), pos2(tape.min.x + len, y)],
@@ -93,7 +174,7 @@ impl DepthTape {
                 clip.text(
                     pos2(tape.min.x + 18.0, y),
                     Align2::LEFT_CENTER,
-                    format!("{d:.0}"),
+                    format!("{shown:.0}"),
                     theme::small(),
                     theme::SCALE,
                 );
@@ -107,7 +188,26 @@ impl DepthTape {
                 Stroke::new(2.0, theme::ESTIMATE),
             );
         }
-        // Current depth box.
+        // Trend: a bar along the scale from now to TREND_S ahead.
+        if let (Some(w), false) = (self.heave_mps, self.stale) {
+            let y0 = tape.center().y;
+            let y1 = y_of(centre_m + w * TREND_S).clamp(tape.min.y, tape.max.y);
+            if (y1 - y0).abs() > 2.0 {
+                let x = tape.min.x + 3.0;
+                clip.line_segment([pos2(x, y0), pos2(x, y1)], Stroke::new(4.0, theme::TREND));
+                let dir = if y1 > y0 { 1.0 } else { -1.0 };
+                clip.add(Shape::convex_polygon(
+                    vec![
+                        pos2(x, y1 + dir * 6.0),
+                        pos2(x - 5.0, y1 - dir * 2.0),
+                        pos2(x + 5.0, y1 - dir * 2.0),
+                    ],
+                    theme::TREND,
+                    Stroke::NONE,
+                ));
+            }
+        }
+        // Current depth box, and the vertical speed under it.
         let c = tape.center();
         let boxr = Rect::from_center_size(pos2(c.x + 4.0, c.y), vec2(tape.width() - 8.0, 26.0));
         painter.rect_filled(boxr, 3.0, Color32::BLACK);
@@ -120,9 +220,36 @@ impl DepthTape {
         painter.text(
             boxr.center(),
             Align2::CENTER_CENTER,
-            fmt_opt(self.depth_m, 2, ""),
+            fmt_opt(
+                self.depth_m.filter(|_| !self.stale).map(|d| d * k),
+                if self.feet { 1 } else { 2 },
+                "",
+            ),
             theme::big(),
             theme::VALUE,
+        );
+        let vs = Rect::from_min_max(
+            pos2(rect.min.x + 4.0, rect.min.y + 22.0),
+            pos2(tape.max.x, rect.min.y + 40.0),
+        );
+        painter.rect_filled(vs, 3.0, Color32::from_black_alpha(200));
+        let vs_text = match self.heave_mps.filter(|_| !self.stale) {
+            Some(w) if w.abs() >= 0.005 => {
+                format!(
+                    "VS {} {:.2} m/s",
+                    if w > 0.0 { "dn" } else { "up" },
+                    w.abs()
+                )
+            }
+            Some(_) => "VS 0.00 m/s".to_string(),
+            None => "VS --- m/s".to_string(),
+        };
+        painter.text(
+            vs.center(),
+            Align2::CENTER_CENTER,
+            vs_text,
+            theme::small(),
+            theme::TREND,
         );
         // Setpoint bug (clamped to the tape edge with an arrow when off scale).
         let sp = drag.or(self.setpoint_m);
@@ -146,7 +273,7 @@ impl DepthTape {
             painter.text(
                 pos2(x - 14.0, y - 9.0),
                 Align2::RIGHT_BOTTOM,
-                format!("{sp:.1}"),
+                format!("{:.1}", sp * k),
                 theme::small(),
                 color,
             );
@@ -162,6 +289,16 @@ impl DepthTape {
             [pos2(bar.min.x - 2.0, yc), pos2(bar.max.x + 2.0, yc)],
             Stroke::new(1.0, theme::SCALE),
         );
+        painter.text(
+            pos2(rect.max.x - 4.0, rect.max.y - 3.0),
+            Align2::RIGHT_BOTTOM,
+            format!("thr {:+.0} %", self.vertical_pct),
+            theme::small(),
+            theme::THRUST,
+        );
+        if self.stale {
+            stale_overlay(&painter, tape);
+        }
 
         let pointer = resp
             .interact_pointer_pos()
@@ -176,6 +313,16 @@ impl DepthTape {
     }
 }
 
+/// "descending 0.25 m/s", "ascending ...", "level" or "vertical speed unknown".
+pub fn vertical_speed_text(heave_mps: Option<f64>) -> String {
+    match heave_mps {
+        Some(w) if w >= 0.005 => format!("descending {w:.2} m/s"),
+        Some(w) if w <= -0.005 => format!("ascending {:.2} m/s", -w),
+        Some(_) => "level 0.00 m/s".into(),
+        None => "vertical speed --- m/s".into(),
+    }
+}
+
 /// Heading tape inputs.
 #[derive(Debug, Clone, Copy)]
 pub struct HeadingTape {
@@ -187,6 +334,8 @@ pub struct HeadingTape {
     pub overridden: bool,
     /// Tether turns.
     pub turns: f64,
+    /// No current data: drawn dimmed with NO DATA.
+    pub stale: bool,
 }
 
 fn wrap180(x: f64) -> f64 {
@@ -197,7 +346,14 @@ impl HeadingTape {
     /// Draws the tape; drag horizontally to choose a heading setpoint.
     pub fn show(&self, ui: &mut Ui, size: Vec2, drag: Option<f64>) -> Option<TapeAction> {
         let (resp, painter) = ui.allocate_painter(size, Sense::drag());
-        resp.widget_info(|| egui::WidgetInfo::labeled(egui::Role::Slider, true, "heading tape"));
+        let label = a11y("heading tape", self.stale, || {
+            format!(
+                "{}, turns {:+.1}",
+                fmt_opt(self.heading_deg, 0, "°"),
+                self.turns
+            )
+        });
+        resp.widget_info(|| egui::WidgetInfo::labeled(egui::Role::Slider, true, &label));
         let rect = resp.rect;
         frame(ui, rect);
         let turns_w = 110.0;
@@ -284,9 +440,12 @@ impl HeadingTape {
             Stroke::new(1.5, theme::VALUE),
             StrokeKind::Inside,
         );
-        let hv = self.heading_deg.map_or("---".into(), |x| {
-            format!("{:03}°", (x.round() as i64).rem_euclid(360))
-        });
+        let hv = self
+            .heading_deg
+            .filter(|_| !self.stale)
+            .map_or("---".into(), |x| {
+                format!("{:03}°", (x.round() as i64).rem_euclid(360))
+            });
         painter.text(
             boxr.center(),
             Align2::CENTER_CENTER,
@@ -326,6 +485,9 @@ impl HeadingTape {
             theme::big(),
             color,
         );
+        if self.stale {
+            stale_overlay(&painter, tape);
+        }
 
         let pointer = resp.interact_pointer_pos();
         if resp.drag_stopped() {
@@ -338,9 +500,24 @@ impl HeadingTape {
     }
 }
 
-/// Draws the artificial horizon (pitch ladder, roll scale) in a square of `side`.
-pub fn horizon(ui: &mut Ui, side: f32, pitch_deg: Option<f64>, roll_deg: Option<f64>) {
-    let (rect, _) = ui.allocate_exact_size(Vec2::splat(side), Sense::hover());
+/// Draws the artificial horizon (pitch ladder, roll scale) in `size`; when
+/// `stale`, dimmed and crossed out with NO DATA (never a level horizon from no data).
+pub fn horizon(
+    ui: &mut Ui,
+    size: Vec2,
+    pitch_deg: Option<f64>,
+    roll_deg: Option<f64>,
+    stale: bool,
+) {
+    let (rect, resp) = ui.allocate_exact_size(size, Sense::hover());
+    let label = a11y("horizon", stale, || {
+        format!(
+            "pitch {}, roll {}",
+            fmt_opt(pitch_deg, 1, "°"),
+            fmt_opt(roll_deg, 1, "°")
+        )
+    });
+    resp.widget_info(|| egui::WidgetInfo::labeled(egui::Role::Image, true, &label));
     frame(ui, rect);
     let inner = rect.shrink(6.0);
     let painter = ui.painter().with_clip_rect(inner);
@@ -355,29 +532,31 @@ pub fn horizon(ui: &mut Ui, side: f32, pitch_deg: Option<f64>, roll_deg: Option<
         vec2(v.x * co - v.y * s, v.x * s + v.y * co)
     };
     let off = pitch * px_per_deg;
-    let big = inner.width() * 2.0;
+    let big = inner.width().max(inner.height()) * 2.0;
     let p = |x: f32, y: f32| c + rot(vec2(x, y + off));
-    // Sky and ground as two big rotated quads.
-    painter.add(Shape::convex_polygon(
-        vec![
-            p(-big, -2.0 * big),
-            p(big, -2.0 * big),
-            p(big, 0.0),
-            p(-big, 0.0),
-        ],
-        theme::SKY,
-        Stroke::NONE,
-    ));
-    painter.add(Shape::convex_polygon(
-        vec![
-            p(-big, 0.0),
-            p(big, 0.0),
-            p(big, 2.0 * big),
-            p(-big, 2.0 * big),
-        ],
-        theme::GROUND,
-        Stroke::NONE,
-    ));
+    // Sky and ground as two big rotated quads (over a picture: the horizon line only).
+    if !overlay(ui) {
+        painter.add(Shape::convex_polygon(
+            vec![
+                p(-big, -2.0 * big),
+                p(big, -2.0 * big),
+                p(big, 0.0),
+                p(-big, 0.0),
+            ],
+            theme::SKY,
+            Stroke::NONE,
+        ));
+        painter.add(Shape::convex_polygon(
+            vec![
+                p(-big, 0.0),
+                p(big, 0.0),
+                p(big, 2.0 * big),
+                p(-big, 2.0 * big),
+            ],
+            theme::GROUND,
+            Stroke::NONE,
+        ));
+    }
     painter.line_segment(
         [p(-big, 0.0), p(big, 0.0)],
         Stroke::new(2.0, Color32::WHITE),
@@ -400,7 +579,7 @@ pub fn horizon(ui: &mut Ui, side: f32, pitch_deg: Option<f64>, roll_deg: Option<
     painter.line_segment([c + vec2(20.0, 0.0), c + vec2(60.0, 0.0)], sym);
     painter.circle_filled(c, 4.0, Color32::YELLOW);
     // Roll scale.
-    let r = inner.width() * 0.45;
+    let r = inner.width().min(inner.height()) * 0.45;
     for a in [
         -60.0f32, -45.0, -30.0, -20.0, -10.0, 0.0, 10.0, 20.0, 30.0, 45.0, 60.0,
     ] {
@@ -439,11 +618,16 @@ pub fn horizon(ui: &mut Ui, side: f32, pitch_deg: Option<f64>, roll_deg: Option<
         theme::mid(),
         Color32::WHITE,
     );
+    if stale {
+        stale_overlay(&painter, inner);
+    }
 }
 
 /// Draws the side view of the vehicle pitched by `pitch_deg` (nose to the right).
-pub fn pitch_glyph(ui: &mut Ui, size: Vec2, pitch_deg: Option<f64>) {
-    let (rect, _) = ui.allocate_exact_size(size, Sense::hover());
+pub fn pitch_glyph(ui: &mut Ui, size: Vec2, pitch_deg: Option<f64>, stale: bool) {
+    let (rect, resp) = ui.allocate_exact_size(size, Sense::hover());
+    let label = a11y("pitch glyph", stale, || fmt_opt(pitch_deg, 1, "°"));
+    resp.widget_info(|| egui::WidgetInfo::labeled(egui::Role::Image, true, &label));
     frame(ui, rect);
     let painter = ui.painter().with_clip_rect(rect.shrink(2.0));
     let c = rect.center() + vec2(0.0, 6.0);
@@ -488,17 +672,24 @@ pub fn pitch_glyph(ui: &mut Ui, size: Vec2, pitch_deg: Option<f64>) {
         theme::mid(),
         theme::VALUE,
     );
+    if stale {
+        stale_overlay(&painter, rect.shrink(2.0));
+    }
 }
 
 /// Draws thruster command bars (port, starboard, vertical), each −100..100 %.
 pub fn thruster_bars(ui: &mut Ui, size: Vec2, port: f64, starboard: f64, vertical: f64) {
-    let (rect, _) = ui.allocate_exact_size(size, Sense::hover());
+    let (rect, resp) = ui.allocate_exact_size(size, Sense::hover());
+    let label = format!(
+        "thrust command: port {port:+.0} %, starboard {starboard:+.0} %, vertical {vertical:+.0} %"
+    );
+    resp.widget_info(|| egui::WidgetInfo::labeled(egui::Role::Image, true, &label));
     frame(ui, rect);
     let painter = ui.painter();
     painter.text(
         pos2(rect.center().x, rect.min.y + 4.0),
         Align2::CENTER_TOP,
-        "THRUST %",
+        "THRUST COMMAND %",
         theme::small(),
         theme::SCALE,
     );

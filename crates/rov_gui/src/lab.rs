@@ -10,7 +10,7 @@ use std::path::Path;
 use std::sync::Arc;
 use std::sync::mpsc::{Receiver, channel};
 
-use egui::{Color32, RichText, Ui, vec2};
+use egui::{Color32, RichText, Ui};
 use egui_plot::{Corner, Legend, Line, Plot, PlotPoints, Points};
 use rov_lab::diagnose::{DiagnoseOptions, Diagnosis, Status, diagnose};
 use rov_lab::evaluate::evaluate;
@@ -42,6 +42,8 @@ pub struct ComparedChannel {
 pub struct Comparison {
     /// Model label.
     pub model: String,
+    /// Which data: "whole run" or "held-out third" (the error fall's data).
+    pub scope: String,
     /// Time, s.
     pub t: Vec<f64>,
     /// Channels.
@@ -73,8 +75,9 @@ pub enum LabResult {
     Compared(Comparison),
     /// Diagnosis done.
     Diagnosed(Box<Diagnosis>, Comparison),
-    /// An effect added and refitted.
-    Added(Box<LabModel>, Comparison, (String, BTreeMap<String, f64>)),
+    /// An effect added (or removed) and refitted; the comparison is on the held-out
+    /// part, and the error-fall step is its RMSE.
+    Added(Box<LabModel>, Comparison, String),
     /// Failure.
     Failed(String),
 }
@@ -173,6 +176,14 @@ pub fn load(path: &Path) -> Result<LabData, String> {
 /// # Errors
 /// The lab's error text.
 pub fn compare(model: &LabModel, run: &Run) -> Result<Comparison, String> {
+    compare_on(model, run, "whole run")
+}
+
+/// [`compare`] with a label for the data compared.
+///
+/// # Errors
+/// The lab's error text.
+pub fn compare_on(model: &LabModel, run: &Run, scope: &str) -> Result<Comparison, String> {
     let eval = evaluate(model, std::slice::from_ref(run)).map_err(|e| e.to_string())?;
     let pred = eval.free_run.first();
     let mut channels = Vec::new();
@@ -192,10 +203,25 @@ pub fn compare(model: &LabModel, run: &Run) -> Result<Comparison, String> {
     }
     Ok(Comparison {
         model: model_label(model),
+        scope: scope.to_string(),
         t: run.t.clone(),
         channels,
     })
 }
+
+impl Comparison {
+    /// The free-run RMSE per channel (what the error fall plots).
+    #[must_use]
+    pub fn rmse(&self) -> BTreeMap<String, f64> {
+        self.channels
+            .iter()
+            .map(|c| (c.name.clone(), c.rmse))
+            .collect()
+    }
+}
+
+/// The held-out part's label.
+pub const HELD_OUT: &str = "held-out third";
 
 fn model_label(m: &LabModel) -> String {
     let mut s = m.kind().name().to_string();
@@ -204,15 +230,6 @@ fn model_label(m: &LabModel) -> String {
         s.push_str(e.key());
     }
     s
-}
-
-fn held_out_rmse(model: &LabModel, val: &Run) -> Result<BTreeMap<String, f64>, String> {
-    let eval = evaluate(model, std::slice::from_ref(val)).map_err(|e| e.to_string())?;
-    Ok(eval
-        .channels
-        .iter()
-        .map(|(k, c)| (k.name().to_string(), c.free_run.rmse))
-        .collect())
 }
 
 impl LabState {
@@ -236,23 +253,21 @@ impl LabState {
             }
             LabResult::Compared(c) => self.comparison = Some(c),
             LabResult::Diagnosed(d, c) => {
-                // The chart starts at the calibrated base; each "Add effect" adds a step
-                // (the diagnosis's own greedy additions are in its findings).
-                self.fall = d
-                    .error_fall
-                    .first()
-                    .map(|(label, maps)| (label.clone(), maps.free_run.clone()))
-                    .into_iter()
-                    .collect();
+                // The chart starts at the calibrated base; each "Add effect" (or
+                // "Remove") adds a step. Every step is the RMSE of the comparison shown
+                // above it: the same view (free run) on the same data (held-out third).
+                // The diagnosis's own greedy additions are in its findings.
+                self.fall = vec![("calibrated base".to_string(), c.rmse())];
                 self.model = Some(d.calibrated.clone());
                 self.added.clear();
                 self.diagnosis = Some(d);
                 self.comparison = Some(c);
             }
-            LabResult::Added(m, c, step) => {
+            LabResult::Added(m, c, label) => {
+                self.added = m.active_effects().to_vec();
+                self.fall.push((label, c.rmse()));
                 self.model = Some(*m);
                 self.comparison = Some(c);
-                self.fall.push(step);
             }
             LabResult::Failed(e) => self.error = Some(e),
         }
@@ -316,11 +331,7 @@ impl LabState {
             self.error = Some("load data first".into());
             return;
         };
-        let (train, val, full) = (
-            Arc::clone(&d.train),
-            Arc::clone(&d.val),
-            Arc::clone(&d.full),
-        );
+        let (train, val) = (Arc::clone(&d.train), Arc::clone(&d.val));
         let kind = self.kind;
         let threads = self.threads.max(1);
         self.spawn("diagnosing", move || {
@@ -342,47 +353,58 @@ impl LabState {
                 Ok(d) => d,
                 Err(e) => return LabResult::Failed(e.to_string()),
             };
-            match compare(&diag.calibrated, &full) {
+            match compare_on(&diag.calibrated, &val, HELD_OUT) {
                 Ok(c) => LabResult::Diagnosed(Box::new(diag), c),
                 Err(e) => LabResult::Failed(e),
             }
         });
     }
 
-    /// Adds an effect to the current model, refits on the training data and compares, in
-    /// the background.
+    /// Adds an effect to the current model, refits on the training data and compares on
+    /// the held-out part, in the background.
     pub fn start_add_effect(&mut self, e: EffectId) {
-        let (Some(d), Some(m)) = (&self.data, &self.model) else {
+        let mut effects = self.added.clone();
+        if !effects.contains(&e) {
+            effects.push(e);
+        }
+        self.start_refit(effects, format!("+{}", e.key()));
+    }
+
+    /// Removes an added effect: refits the calibrated base with the remaining effects,
+    /// in the background.
+    pub fn start_remove_effect(&mut self, e: EffectId) {
+        let effects: Vec<EffectId> = self.added.iter().copied().filter(|x| *x != e).collect();
+        self.start_refit(effects, format!("-{}", e.key()));
+    }
+
+    /// Refits the diagnosis's calibrated base with `effects` (the same refit as
+    /// `topside lab add`: each effect's parameters start at the better of off and their
+    /// probe value, then are fitted jointly with the base) and compares on the held-out
+    /// part.
+    fn start_refit(&mut self, effects: Vec<EffectId>, label: String) {
+        let (Some(d), Some(diag)) = (&self.data, &self.diagnosis) else {
             self.error = Some("run the diagnosis first".into());
             return;
         };
-        self.added.push(e);
-        let (train, val, full) = (
-            Arc::clone(&d.train),
-            Arc::clone(&d.val),
-            Arc::clone(&d.full),
-        );
-        let model = m.clone();
+        let (train, val) = (Arc::clone(&d.train), Arc::clone(&d.val));
+        let base = diag.calibrated.clone();
         let threads = self.threads.max(1);
-        self.spawn("adding effect", move || {
-            // The same refit as `topside lab add`: the effect's parameters start at the
-            // better of off and their probe value, then are fitted jointly with the base.
+        self.spawn("refitting", move || {
             let opts = LmOptions {
                 max_iter: 8,
                 threads,
                 ..LmOptions::default()
             };
-            let fitted = match fit_with_effects(&model, std::slice::from_ref(&*train), &[e], &opts)
-            {
-                Ok((m, _)) => m,
-                Err(err) => return LabResult::Failed(err.to_string()),
+            let fitted = if effects.is_empty() {
+                base
+            } else {
+                match fit_with_effects(&base, std::slice::from_ref(&*train), &effects, &opts) {
+                    Ok((m, _)) => m,
+                    Err(err) => return LabResult::Failed(err.to_string()),
+                }
             };
-            let step = match held_out_rmse(&fitted, &val) {
-                Ok(r) => (format!("+{}", e.key()), r),
-                Err(err) => return LabResult::Failed(err),
-            };
-            match compare(&fitted, &full) {
-                Ok(c) => LabResult::Added(Box::new(fitted), c, step),
+            match compare_on(&fitted, &val, HELD_OUT) {
+                Ok(c) => LabResult::Added(Box::new(fitted), c, label),
                 Err(err) => LabResult::Failed(err),
             }
         });
@@ -402,6 +424,20 @@ fn status_badge(s: Status) -> (&'static str, Color32) {
 }
 
 pub(crate) fn lab_tab(app: &mut StationApp, ui: &mut Ui) {
+    let browse = ui
+        .horizontal(|ui| {
+            ui.label(RichText::new("Model lab").strong().color(theme::SCALE));
+            ui.button("Browse…").clicked()
+        })
+        .inner;
+    if browse
+        && let Some(p) = app
+            .backend
+            .pick_file("Open measurements or a session", &["csv", "mcap"])
+    {
+        app.lab.path = p.display().to_string();
+        app.lab.start_load(&p);
+    }
     let lab = &mut app.lab;
     ui.horizontal(|ui| {
         let l = ui.label("Data (CSV or MCAP)");
@@ -413,8 +449,15 @@ pub(crate) fn lab_tab(app: &mut StationApp, ui: &mut Ui) {
         .labelled_by(l.id);
         let busy = lab.is_busy();
         if ui.add_enabled(!busy, egui::Button::new("Load")).clicked() {
-            let p = std::path::PathBuf::from(lab.path.trim());
-            lab.start_load(&p);
+            if lab.path.trim().is_empty() {
+                lab.error = Some(
+                    "no file chosen: type the path of a CSV or a session (.mcap), or use Browse"
+                        .into(),
+                );
+            } else {
+                let p = std::path::PathBuf::from(lab.path.trim());
+                lab.start_load(&p);
+            }
         }
         if let Some(last) = app.live_view.recording.last_file.clone()
             && ui
@@ -480,6 +523,7 @@ pub(crate) fn lab_tab(app: &mut StationApp, ui: &mut Ui) {
     }
     ui.separator();
     let mut add: Option<EffectId> = None;
+    let mut remove: Option<EffectId> = None;
     egui::Panel::right("lab_findings")
         .exact_size(430.0)
         .resizable(false)
@@ -507,27 +551,24 @@ pub(crate) fn lab_tab(app: &mut StationApp, ui: &mut Ui) {
                                 let (b, c) = status_badge(f.status);
                                 ui.label(RichText::new(b).small().strong().color(c));
                                 let effect = EffectId::parse(&f.effect);
-                                let already = effect.is_some_and(|e| {
-                                    lab.added.contains(&e)
-                                        || lab
-                                            .model
-                                            .as_ref()
-                                            .is_some_and(|m| m.active_effects().contains(&e))
-                                });
-                                let can =
-                                    effect.is_some() && !f.contained && !already && !lab.is_busy();
+                                let already = effect.is_some_and(|e| lab.added.contains(&e));
+                                let can = effect.is_some() && !f.contained && !lab.is_busy();
                                 ui.with_layout(
                                     egui::Layout::right_to_left(egui::Align::Center),
                                     |ui| {
                                         let label = if f.contained {
                                             "In the model"
                                         } else if already {
-                                            "Added"
+                                            "Remove"
                                         } else {
                                             "Add effect"
                                         };
                                         if ui.add_enabled(can, egui::Button::new(label)).clicked() {
-                                            add = effect;
+                                            if already {
+                                                remove = effect;
+                                            } else {
+                                                add = effect;
+                                            }
                                         }
                                     },
                                 );
@@ -562,11 +603,16 @@ pub(crate) fn lab_tab(app: &mut StationApp, ui: &mut Ui) {
                     }
                 });
             ui.separator();
-            ui.label(RichText::new("ERROR FALL (held-out free-run RMSE)").strong());
+            ui.label(
+                RichText::new("ERROR FALL (held-out third, free-run RMSE, % of the base)").strong(),
+            );
             error_fall(ui, &lab.fall);
         });
     if let Some(e) = add {
         lab.start_add_effect(e);
+    }
+    if let Some(e) = remove {
+        lab.start_remove_effect(e);
     }
     comparison_plots(ui, lab.comparison.as_ref());
 }
@@ -650,6 +696,78 @@ fn error_fall(ui: &mut Ui, fall: &[(String, BTreeMap<String, f64>)]) {
         });
 }
 
+/// The unit of a lab channel.
+#[must_use]
+pub fn channel_unit(name: &str) -> &'static str {
+    match name {
+        "depth" | "north" | "east" => "m",
+        "heading" | "pitch" | "roll" => "°",
+        "yaw_rate" | "pitch_rate" | "roll_rate" => "°/s",
+        "surge" | "sway" | "heave" => "m/s",
+        _ => "",
+    }
+}
+
+/// Line segments of a plot, each a list of (t, y) points.
+pub type Segments = Vec<Vec<[f64; 2]>>;
+
+/// The plotted lines of a compared channel: (measured, model) segments. Headings are
+/// drawn within ±180° of the measured run's circular mean and split where they wrap (as
+/// in the Plots tab: no 400-540° axis); `step` thins the samples to about two per pixel.
+#[must_use]
+pub fn channel_lines(t: &[f64], ch: &ComparedChannel, step: usize) -> (Segments, Segments) {
+    let wraps = ch.name == "heading";
+    let reference = if wraps {
+        let (s, c) = ch
+            .measured
+            .iter()
+            .filter(|x| x.is_finite())
+            .fold((0.0, 0.0), |(s, c), x| {
+                (s + x.to_radians().sin(), c + x.to_radians().cos())
+            });
+        s.atan2(c).to_degrees()
+    } else {
+        0.0
+    };
+    let lines = |ys: &[f64]| {
+        let mut out: Segments = vec![Vec::new()];
+        let mut prev: Option<f64> = None;
+        for (x, y) in t.iter().zip(ys).step_by(step.max(1)) {
+            if !y.is_finite() {
+                out.push(Vec::new());
+                prev = None;
+                continue;
+            }
+            let y = if wraps {
+                reference + ((y - reference + 540.0).rem_euclid(360.0) - 180.0)
+            } else {
+                *y
+            };
+            if wraps && prev.is_some_and(|p: f64| (y - p).abs() > 180.0) {
+                out.push(Vec::new());
+            }
+            if let Some(l) = out.last_mut() {
+                l.push([*x, y]);
+            }
+            prev = Some(y);
+        }
+        out.retain(|l| !l.is_empty());
+        out
+    };
+    (lines(&ch.measured), lines(&ch.predicted))
+}
+
+/// The headline of a compared channel: fit and RMSE with units, or why there is no fit.
+#[must_use]
+pub fn channel_title(ch: &ComparedChannel) -> String {
+    let unit = channel_unit(&ch.name);
+    let fit = ch.fit_pct.map_or_else(
+        || "fit n/a (not excited above 3x its noise)".to_string(),
+        |f| format!("fit {f:.1} %"),
+    );
+    format!("{}: {fit}, RMSE {:.3} {unit}", ch.name, ch.rmse)
+}
+
 fn comparison_plots(ui: &mut Ui, c: Option<&Comparison>) {
     let Some(c) = c else {
         ui.label(
@@ -658,7 +776,13 @@ fn comparison_plots(ui: &mut Ui, c: Option<&Comparison>) {
         );
         return;
     };
-    ui.label(RichText::new(format!("MODEL {} VS MEASURED", c.model)).strong());
+    ui.label(
+        RichText::new(format!(
+            "MODEL {} VS MEASURED ({}, free run)",
+            c.model, c.scope
+        ))
+        .strong(),
+    );
     let shown: Vec<&ComparedChannel> = c
         .channels
         .iter()
@@ -668,46 +792,45 @@ fn comparison_plots(ui: &mut Ui, c: Option<&Comparison>) {
     let each = ((ui.available_height() - 8.0) / n).max(70.0);
     let width = ui.available_width().max(100.0) as usize;
     for ch in shown {
-        let fit = ch
-            .fit_pct
-            .map_or("fit n/a".to_string(), |f| format!("fit {f:.1} %"));
-        let title = format!("{}: {fit} (rmse {:.3})", ch.name, ch.rmse);
-        let idx: Vec<usize> = (0..c.t.len()).collect();
-        let step = (idx.len() / (2 * width)).max(1);
-        let meas: Vec<[f64; 2]> = idx
-            .iter()
-            .step_by(step)
-            .filter_map(|&i| Some([*c.t.get(i)?, *ch.measured.get(i)?]))
-            .filter(|p| p[1].is_finite())
-            .collect();
-        let pred: Vec<[f64; 2]> = idx
-            .iter()
-            .step_by(step)
-            .filter_map(|&i| Some([*c.t.get(i)?, *ch.predicted.get(i)?]))
-            .filter(|p| p[1].is_finite())
-            .collect();
-        ui.label(RichText::new(title).small().strong());
-        Plot::new(("lab_cmp", ch.name.as_str()))
+        let step = (c.t.len() / (2 * width)).max(1);
+        let (meas, pred) = channel_lines(&c.t, ch, step);
+        ui.label(RichText::new(channel_title(ch)).small().strong());
+        let unit = channel_unit(&ch.name);
+        let mut plot = Plot::new(("lab_cmp", ch.name.as_str()))
             .height(each - 22.0)
             .legend(Legend::default().position(Corner::LeftTop))
             .allow_drag(false)
             .allow_zoom(false)
             .allow_scroll(false)
             .link_axis(egui::Id::unique("lab_x"), [true, false])
-            .y_axis_min_width(44.0)
-            .show(ui, |p| {
+            .x_axis_label("time s")
+            .y_axis_label(format!("{} {unit}", ch.name))
+            .y_axis_min_width(44.0);
+        if ch.name == "depth" {
+            // Depth grows downwards, as under water.
+            plot = plot.invert_y(true);
+        }
+        if ch.name == "heading" {
+            plot = plot.y_axis_formatter(|m, _| format!("{:.0}", m.value.rem_euclid(360.0)));
+        }
+        plot.show(ui, |p| {
+            for seg in meas {
                 p.line(
-                    Line::new("measured", PlotPoints::new(meas))
+                    Line::new("measured", PlotPoints::new(seg))
                         .color(theme::VALUE)
-                        .width(1.5),
+                        .width(1.5)
+                        .allow_band(false),
                 );
+            }
+            for seg in pred {
                 p.line(
-                    Line::new("model", PlotPoints::new(pred))
+                    Line::new("model", PlotPoints::new(seg))
                         .color(theme::PREDICTION)
-                        .width(1.5),
+                        .width(1.5)
+                        .allow_band(false),
                 );
-            });
+            }
+        });
         ui.add_space(2.0);
     }
-    let _ = vec2(0.0, 0.0);
 }

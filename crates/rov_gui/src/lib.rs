@@ -17,13 +17,19 @@
 
 pub mod app;
 mod connection;
-mod fly;
+mod dive;
+pub mod fly;
+mod help;
 pub mod instruments;
 pub mod lab;
+pub mod layout;
+mod pad_page;
 mod panels;
 pub mod plots;
 mod replay;
 pub mod screenshot;
+pub mod sessions;
+pub mod settings;
 pub mod theme;
 
 use std::path::{Path, PathBuf};
@@ -31,6 +37,13 @@ use std::sync::mpsc::{Receiver, channel};
 use std::time::Duration;
 
 pub use app::{AutodetectResult, Backend, ScreenshotRequest, StationApp, Tab};
+pub use fly::MainView;
+
+/// The keys the F1 window lists (for tests and documentation).
+#[must_use]
+pub fn help_keys() -> Vec<&'static str> {
+    help::KEYS.iter().map(|(k, _)| *k).collect()
+}
 use rov_station::runtime::{Connection, Runtime, RuntimeConfig, StationHandle};
 
 /// The real backend: stations on their own threads ([`Runtime`]).
@@ -90,21 +103,41 @@ impl Backend for RealBackend {
     }
 
     fn recording_path(&mut self) -> PathBuf {
-        let secs = std::time::SystemTime::now()
-            .duration_since(std::time::UNIX_EPOCH)
-            .map_or(0, |d| d.as_secs());
-        let _ = std::fs::create_dir_all(&self.recordings_dir);
-        self.recordings_dir.join(format!("session-{secs}.mcap"))
+        rov_station::runtime::recording_path_in(&self.recordings_dir)
+    }
+
+    fn recordings_dir(&self) -> PathBuf {
+        self.recordings_dir.clone()
+    }
+
+    fn pick_file(&mut self, title: &str, extensions: &[&str]) -> Option<PathBuf> {
+        rfd::FileDialog::new()
+            .set_title(title)
+            .add_filter(extensions.join(", "), extensions)
+            .set_directory(&self.recordings_dir)
+            .pick_file()
+    }
+
+    fn save_file(&mut self, title: &str, default_name: &str) -> Option<PathBuf> {
+        rfd::FileDialog::new()
+            .set_title(title)
+            .set_file_name(default_name)
+            .set_directory(&self.recordings_dir)
+            .save_file()
+    }
+
+    fn pick_folder(&mut self, title: &str) -> Option<PathBuf> {
+        rfd::FileDialog::new().set_title(title).pick_folder()
     }
 }
 
-/// Window options for the station (1280×800, titled).
+/// Window options for the station (1280×800 unless given, at least 1024×600, titled).
 #[must_use]
-pub fn native_options() -> eframe::NativeOptions {
+pub fn native_options(size: Option<[f32; 2]>) -> eframe::NativeOptions {
     eframe::NativeOptions {
         viewport: egui::ViewportBuilder::default()
-            .with_inner_size([1280.0, 800.0])
-            .with_min_inner_size([1024.0, 640.0])
+            .with_inner_size(size.unwrap_or([1280.0, 800.0]))
+            .with_min_inner_size([1024.0, 600.0])
             .with_title("topside — VideoRay Pro 4 station"),
         ..eframe::NativeOptions::default()
     }
@@ -115,9 +148,17 @@ pub fn native_options() -> eframe::NativeOptions {
 /// # Errors
 /// eframe's error text when the window cannot be created.
 pub fn run_native(app: StationApp) -> Result<(), String> {
+    run_native_sized(app, None)
+}
+
+/// [`run_native`] with a window size (points).
+///
+/// # Errors
+/// eframe's error text when the window cannot be created.
+pub fn run_native_sized(app: StationApp, size: Option<[f32; 2]>) -> Result<(), String> {
     eframe::run_native(
         "topside",
-        native_options(),
+        native_options(size),
         Box::new(move |cc| {
             theme::apply(&cc.egui_ctx);
             Ok(Box::new(app))

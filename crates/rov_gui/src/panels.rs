@@ -61,7 +61,7 @@ fn axis_row(app: &mut StationApp, ui: &mut Ui, axis: Axis, v: &StationView, repl
             mode_cmd(app, m);
         }
         let sp = match axis {
-            Axis::Depth => av.setpoint.map_or("---".into(), |x| format!("{x:.2} m")),
+            Axis::Depth => crate::settings::depth_text(av.setpoint, app.station.depth_unit, 2),
             Axis::Heading => av.setpoint.map_or("---".into(), |x| {
                 format!("{:03}°", (x.round() as i64).rem_euclid(360))
             }),
@@ -89,7 +89,7 @@ fn axis_row(app: &mut StationApp, ui: &mut Ui, axis: Axis, v: &StationView, repl
             };
             for (d, label) in steps {
                 if ui
-                    .add(egui::Button::new(label).min_size(vec2(38.0, 20.0)))
+                    .add(egui::Button::new(label).min_size(vec2(34.0, 20.0)))
                     .clicked()
                 {
                     mode_cmd(
@@ -101,8 +101,9 @@ fn axis_row(app: &mut StationApp, ui: &mut Ui, axis: Axis, v: &StationView, repl
                     );
                 }
             }
+            let feet = app.station.depth_unit == rov_station::runtime::settings::DepthUnit::Feet;
             let (text, hint) = match axis {
-                Axis::Depth => (&mut app.depth_text, "m"),
+                Axis::Depth => (&mut app.depth_text, if feet { "ft" } else { "m" }),
                 Axis::Heading => (&mut app.heading_text, "deg"),
             };
             let edit = egui::TextEdit::singleline(text)
@@ -122,7 +123,13 @@ fn axis_row(app: &mut StationApp, ui: &mut Ui, axis: Axis, v: &StationView, repl
                         mode_cmd(
                             app,
                             match axis {
-                                Axis::Depth => ModeCommand::SetDepth { depth_m: x },
+                                Axis::Depth => ModeCommand::SetDepth {
+                                    depth_m: if feet {
+                                        x / crate::settings::FT_PER_M
+                                    } else {
+                                        x
+                                    },
+                                },
                                 Axis::Heading => ModeCommand::SetHeading { heading_deg: x },
                             },
                         );
@@ -185,9 +192,20 @@ fn level(x: Option<f64>, warn: impl Fn(f64) -> bool, alarm: impl Fn(f64) -> bool
     }
 }
 
+/// The colour of a value against a pilot's limit: above it (`high`) or below it.
+fn against(x: Option<f64>, l: rov_station::runtime::Limit, high: bool) -> Color32 {
+    if high {
+        level(x, |v| v >= l.warn, |v| v >= l.alarm)
+    } else {
+        level(x, |v| v <= l.warn, |v| v <= l.alarm)
+    }
+}
+
 pub(crate) fn health_panel(app: &StationApp, ui: &mut Ui) {
     let v = app.shown().0;
     let h = &v.health;
+    let lim = &v.alarm_limits;
+    let tu = app.station.temp_unit;
     group_title(ui, "HEALTH");
     egui::Grid::new("health")
         .num_columns(2)
@@ -196,8 +214,12 @@ pub(crate) fn health_panel(app: &StationApp, ui: &mut Ui) {
             let rate = h
                 .humidity_rate_pct_per_min
                 .map_or(String::new(), |r| format!("  ({r:+.1} %/min)"));
-            let hc = level(h.humidity_pct, |x| x > 45.0, |x| x > 60.0);
-            let rc = level(h.humidity_rate_pct_per_min, |x| x > 0.5, |x| x > 2.0);
+            let hc = against(h.humidity_pct, lim.humidity_pct, true);
+            let rc = against(
+                h.humidity_rate_pct_per_min,
+                lim.humidity_rise_pct_per_min,
+                true,
+            );
             let color = if rc == theme::RED || hc == theme::RED {
                 theme::RED
             } else if rc == theme::AMBER || hc == theme::AMBER {
@@ -213,12 +235,25 @@ pub(crate) fn health_panel(app: &StationApp, ui: &mut Ui) {
                 level(h.water_temp_c, |x| x > 35.0, |_| false),
                 "Water temp",
             );
-            ui.label(RichText::new(opt(h.water_temp_c, 1, "°C")).monospace());
+            ui.label(RichText::new(crate::settings::temp_text(h.water_temp_c, tu)).monospace());
             ui.end_row();
-            dot_label(ui, level(h.tether_v, |x| x < 66.0, |x| x < 60.0), "Tether");
+            dot_label(
+                ui,
+                against(h.internal_temp_c, lim.internal_temp_c, true),
+                "Internal temp",
+            );
+            ui.label(
+                RichText::new(h.internal_temp_c.map_or_else(
+                    || "not reported".into(),
+                    |t| crate::settings::temp_text(Some(t), tu),
+                ))
+                .monospace(),
+            );
+            ui.end_row();
+            dot_label(ui, against(h.tether_v, lim.tether_v, false), "Tether");
             ui.label(RichText::new(opt(h.tether_v, 1, "V")).monospace());
             ui.end_row();
-            dot_label(ui, level(h.rail_v, |x| x < 11.5, |x| x < 11.0), "12 V rail");
+            dot_label(ui, against(h.rail_v, lim.rail_12v_v, false), "12 V rail");
             ui.label(
                 RichText::new(format!(
                     "{}  {}",
@@ -227,6 +262,34 @@ pub(crate) fn health_panel(app: &StationApp, ui: &mut Ui) {
                 ))
                 .monospace(),
             );
+            ui.end_row();
+            let t = &v.tick;
+            let late_ms = t.p99_late_us as f64 * 1e-3;
+            let tick_color = if t.missed > 0 || t.watchdog_trips > 0 {
+                theme::RED
+            } else if late_ms > 5.0 {
+                theme::AMBER
+            } else if t.ticks == 0 {
+                theme::DIM
+            } else {
+                theme::GREEN
+            };
+            dot_label(ui, tick_color, "Control loop");
+            ui.label(
+                RichText::new(format!("{} missed, p99 {late_ms:.1} ms", t.missed)).monospace(),
+            )
+            .on_hover_text(format!(
+                "{} ticks, late max {:.1} ms, watchdog trips {}; a tick is missed when it \
+                 starts 20 ms or more late. Thread priority: {}",
+                t.ticks,
+                t.max_late_us as f64 * 1e-3,
+                t.watchdog_trips,
+                if v.control_priority.is_empty() {
+                    "-"
+                } else {
+                    v.control_priority.as_str()
+                }
+            ));
             ui.end_row();
             dot_label(ui, level(h.power_w, |x| x > 250.0, |_| false), "Power");
             ui.label(
@@ -366,7 +429,7 @@ pub(crate) fn recording_control(app: &mut StationApp, ui: &mut Ui) {
                 ui.label(RichText::new(format!("{name} · {} msgs", r.messages)).small());
             }
             None => {
-                ui.label(RichText::new("not recording").color(theme::DIM));
+                ui.label(RichText::new("NOT RECORDING").strong().color(theme::AMBER));
                 if let Some(p) = &r.last_file {
                     let name = p
                         .file_name()
@@ -442,6 +505,7 @@ pub(crate) fn pad_text(p: &PadStatus) -> String {
         }
         PadStatus::Connected(n) => format!("gamepad: {n}"),
         PadStatus::WaitingForCentre(n) => format!("gamepad {n}: centre the sticks"),
+        PadStatus::Stale => "gamepad thread not responding: sticks centred".into(),
     }
 }
 
@@ -459,48 +523,11 @@ pub(crate) fn sticks_panel(app: &mut StationApp, ui: &mut Ui) {
     stick_bar(ui, "surge", p.raw.surge, p.shaped.surge);
     stick_bar(ui, "yaw", p.raw.yaw, p.shaped.yaw);
     stick_bar(ui, "vertical", p.raw.vertical, p.shaped.vertical);
-    let armed = v.snapshot.armed;
-    egui::CollapsingHeader::new("Stick shaping (locked while armed)")
-        .id_salt("shaping")
-        .show(ui, |ui| {
-            ui.add_enabled_ui(!armed, |ui| {
-                let mut s = app.shaping;
-                egui::Grid::new("shaping_grid")
-                    .num_columns(4)
-                    .show(ui, |ui| {
-                        ui.label("");
-                        ui.label("deadband");
-                        ui.label("expo");
-                        ui.label("");
-                        ui.end_row();
-                        for (name, a) in [
-                            ("surge", &mut s.surge),
-                            ("yaw", &mut s.yaw),
-                            ("vertical", &mut s.vertical),
-                        ] {
-                            let l = ui.label(name);
-                            ui.add(
-                                egui::DragValue::new(&mut a.deadband)
-                                    .range(0.0..=0.5)
-                                    .speed(0.01),
-                            )
-                            .labelled_by(l.id);
-                            ui.add(
-                                egui::DragValue::new(&mut a.expo)
-                                    .range(0.0..=1.0)
-                                    .speed(0.01),
-                            )
-                            .labelled_by(l.id);
-                            ui.checkbox(&mut a.invert, "inv");
-                            ui.end_row();
-                        }
-                    });
-                if s != app.shaping {
-                    app.shaping = s;
-                    app.live_cmd(RuntimeCommand::Shaping(s));
-                }
-            });
-        });
+    ui.label(
+        RichText::new("Deadband, expo, scale and the button map: Gamepad tab.")
+            .small()
+            .color(theme::DIM),
+    );
 }
 
 #[cfg(test)]

@@ -228,7 +228,12 @@ pub fn plot(ui: &mut Ui, id: &str, h: &History, series: &[Series], t0: f64, t1: 
                 p.line(
                     Line::new(s.name, PlotPoints::new(seg))
                         .color(s.color)
-                        .width(s.width),
+                        .width(s.width)
+                        // egui_plot merges points closer than a pixel into a "band"
+                        // and interpolates between bands: a decimated setpoint step
+                        // followed by its far end became a filled wedge. The series
+                        // are already decimated to the pixel columns here.
+                        .allow_band(false),
                 );
             }
         }

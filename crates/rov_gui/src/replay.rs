@@ -3,8 +3,6 @@
 //! REPLAY badge. The instruments and plots show the replay; arming and the alarm bar
 //! stay on the live station.
 
-use std::path::PathBuf;
-
 use egui::{RichText, Ui, vec2};
 use rov_station::runtime::ReplayCommand;
 
@@ -39,7 +37,18 @@ pub(crate) fn replay_bar(app: &mut StationApp, ui: &mut Ui) {
                 {
                     app.replay_cmd(ReplayCommand::Toggle);
                 }
-                if ui.button("Step").clicked() {
+                if ui
+                    .button("Step back")
+                    .on_hover_text("one control tick back (,)")
+                    .clicked()
+                {
+                    app.replay_cmd(ReplayCommand::StepBack);
+                }
+                if ui
+                    .button("Step")
+                    .on_hover_text("one control tick forward (.)")
+                    .clicked()
+                {
                     app.replay_cmd(ReplayCommand::Step);
                 }
                 let mut speed = r.speed;
@@ -94,15 +103,27 @@ pub(crate) fn replay_tab(app: &mut StationApp, ui: &mut Ui) {
                 .hint_text("path/to/session.mcap"),
         )
         .labelled_by(l.id);
-        if ui.button("Open").clicked() {
-            let p = PathBuf::from(app.replay_path.trim());
+        if ui.button("Browse…").clicked()
+            && let Some(p) = app.backend.pick_file("Open a session", &["mcap"])
+        {
+            app.replay_path = p.display().to_string();
             app.open_replay(&p);
+        }
+        if ui.button("Open").clicked() {
+            let p = app.replay_path.clone();
+            app.open_replay_text(&p);
         }
         if app.replay.is_some() && ui.button("Close replay").clicked() {
             app.close_replay();
         }
     });
-    if let Some(last) = app.live_view.recording.last_file.clone()
+    let last = app
+        .live_view
+        .recording
+        .last_file
+        .clone()
+        .or_else(|| app.last_recording().cloned());
+    if let Some(last) = last
         && ui
             .button(format!(
                 "Open the last recording ({})",
@@ -113,6 +134,11 @@ pub(crate) fn replay_tab(app: &mut StationApp, ui: &mut Ui) {
     {
         app.replay_path = last.display().to_string();
         app.open_replay(&last);
+    }
+    if app.replay.is_none() {
+        ui.separator();
+        session_list(app, ui);
+        return;
     }
     if let Some(r) = app
         .replay_view
@@ -144,9 +170,164 @@ pub(crate) fn replay_tab(app: &mut StationApp, ui: &mut Ui) {
             ui.label(RichText::new(format!("warning: {w}")).color(theme::AMBER));
         }
         ui.separator();
-        ui.label(RichText::new("Events").strong());
-        for e in app.replay_view.events.iter().rev() {
-            ui.label(RichText::new(e).monospace().small());
+        events_index(app, ui, &r);
+    }
+}
+
+/// Every event of the session, clickable: a click moves the play head there.
+fn events_index(app: &mut StationApp, ui: &mut Ui, r: &rov_station::runtime::ReplayView) {
+    ui.label(RichText::new(format!("Events ({}): click to jump", r.index.len())).strong());
+    let mut seek = None;
+    let now = r.position_s;
+    let current = r.index.iter().rposition(|e| e.t_s <= now + 1e-6);
+    egui::ScrollArea::vertical()
+        .id_salt("replay_events")
+        .auto_shrink([false, true])
+        .show(ui, |ui| {
+            for (i, e) in r.index.iter().enumerate() {
+                let color = match e.severity {
+                    rov_session::Severity::Alarm => theme::RED,
+                    rov_session::Severity::Warning => theme::AMBER,
+                    rov_session::Severity::Info => theme::SCALE,
+                };
+                let text = RichText::new(format!("{}  {:<10} {}", mmss(e.t_s), e.kind, e.text))
+                    .monospace()
+                    .small()
+                    .color(color);
+                if ui.selectable_label(current == Some(i), text).clicked() {
+                    seek = Some(e.t_s);
+                }
+            }
+        });
+    if let Some(t) = seek {
+        app.replay_cmd(ReplayCommand::Seek(t));
+    }
+}
+
+/// The recordings folder as a list; see [`crate::sessions`].
+fn session_list(app: &mut StationApp, ui: &mut Ui) {
+    let dir = app.backend.recordings_dir();
+    let known = app.recordings().len();
+    if (app.browser.dir != dir || app.browser_seen != known) && !app.browser.busy() {
+        app.browser_seen = known;
+        app.browser.refresh(&dir);
+    }
+    // The button comes first so that it stays in place whatever the folder's length.
+    ui.horizontal(|ui| {
+        if ui.button("Refresh").clicked() {
+            app.browser.refresh(&dir);
+        }
+        if app.browser.busy() {
+            ui.spinner();
+        }
+        ui.label(RichText::new(format!("Recordings in {}", dir.display())).strong());
+    });
+    if let Some(e) = &app.browser.error {
+        ui.label(RichText::new(e).color(theme::AMBER));
+    }
+    let entries = app.browser.entries.clone();
+    if entries.is_empty() && !app.browser.busy() {
+        ui.label(RichText::new("no recordings yet").color(theme::DIM));
+        return;
+    }
+    let mut action: Option<(usize, u8)> = None;
+    egui::ScrollArea::vertical()
+        .id_salt("session_list")
+        .auto_shrink([false, true])
+        .show(ui, |ui| {
+            egui::Grid::new("sessions")
+                .num_columns(7)
+                .striped(true)
+                .spacing(vec2(12.0, 4.0))
+                .show(ui, |ui| {
+                    for h in [
+                        "date (UTC)",
+                        "duration",
+                        "size",
+                        "vehicle",
+                        "notes",
+                        "file",
+                        "",
+                    ] {
+                        ui.label(RichText::new(h).small().color(theme::DIM));
+                    }
+                    ui.end_row();
+                    for (i, s) in entries.iter().enumerate() {
+                        ui.label(crate::sessions::utc_text(s.started_unix_s));
+                        ui.label(mmss(s.duration_s));
+                        ui.label(format!("{:.1} MB", s.size_bytes as f64 / 1e6));
+                        ui.label(&s.vehicle);
+                        let notes = match (s.notes.first(), s.notes.len(), s.markers) {
+                            (Some(n), k, m) => format!("{n}{}", extra(k, m)),
+                            (None, _, 0) => String::new(),
+                            (None, _, m) => format!("{m} markers"),
+                        };
+                        ui.label(RichText::new(notes).small());
+                        let name = s
+                            .path
+                            .file_name()
+                            .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
+                        let state = match (&s.error, s.complete) {
+                            (Some(e), _) => format!("{name} (unreadable: {e})"),
+                            (None, false) => format!("{name} (truncated)"),
+                            (None, true) => name,
+                        };
+                        ui.label(RichText::new(state).small().monospace());
+                        ui.horizontal(|ui| {
+                            if ui.button("Replay").clicked() {
+                                action = Some((i, 0));
+                            }
+                            if ui.button("Export CSV").clicked() {
+                                action = Some((i, 1));
+                            }
+                            if ui.button("To lab").clicked() {
+                                action = Some((i, 2));
+                            }
+                        });
+                        ui.end_row();
+                    }
+                });
+        });
+    let Some((i, what)) = action else { return };
+    let Some(s) = entries.get(i) else { return };
+    match what {
+        0 => {
+            app.replay_path = s.path.display().to_string();
+            let p = s.path.clone();
+            app.open_replay(&p);
+        }
+        1 => {
+            let default = s.path.with_extension("csv");
+            let name = default.file_name().map_or_else(
+                || "session.csv".into(),
+                |n| n.to_string_lossy().into_owned(),
+            );
+            // Without a dialog (none on this desktop, or cancelled) the CSV goes next
+            // to the session.
+            let out = app
+                .backend
+                .save_file("Export the session as CSV", &name)
+                .unwrap_or(default);
+            app.message = Some(
+                crate::sessions::export_csv(&s.path, &out)
+                    .unwrap_or_else(|e| format!("cannot export: {e}")),
+            );
+        }
+        _ => {
+            app.lab.path = s.path.display().to_string();
+            app.lab.start_load(&s.path);
+            app.tab = crate::app::Tab::Lab;
         }
     }
+}
+
+fn extra(notes: usize, markers: usize) -> String {
+    let mut s = String::new();
+    if notes > 1 {
+        s.push_str(&format!(" (+{} notes)", notes - 1));
+    }
+    if markers > 0 {
+        s.push_str(&format!(", {markers} markers"));
+    }
+    s
 }

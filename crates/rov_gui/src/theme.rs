@@ -21,6 +21,8 @@ pub const ESTIMATE: Color32 = Color32::from_rgb(90, 170, 255);
 pub const PREDICTION: Color32 = Color32::from_rgb(200, 120, 255);
 /// Thrust.
 pub const THRUST: Color32 = Color32::from_rgb(255, 170, 40);
+/// Vertical-speed trend.
+pub const TREND: Color32 = Color32::from_rgb(0, 210, 220);
 /// OK.
 pub const GREEN: Color32 = Color32::from_rgb(40, 180, 70);
 /// Watch.

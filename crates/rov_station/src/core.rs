@@ -39,8 +39,8 @@ pub enum StationCommand {
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]
 pub enum CommandError {
-    /// The link refused to arm.
-    #[error("cannot arm: {0}")]
+    /// The link refused to arm (its text already says "cannot arm").
+    #[error("{0}")]
     Arm(#[from] ArmError),
     /// The controller refused the command.
     #[error("{0}")]
@@ -51,7 +51,7 @@ pub enum CommandError {
 }
 
 /// What the GUI and the recorder see of the station after each tick.
-#[derive(Debug, Clone, Default, Serialize)]
+#[derive(Debug, Default, Serialize)]
 pub struct Snapshot {
     /// Station time, s.
     pub time_s: f64,
@@ -239,15 +239,30 @@ impl StationCore {
         let t = self.last_telemetry.as_ref();
         let s = self.last_status.as_ref();
         let d = &out.diagnostics;
+        let health = match self.health {
+            Some(Health::Connected) => "connected",
+            Some(Health::Degraded) => "degraded",
+            _ => "lost",
+        };
+        // The text fields are reused (no allocation per tick).
+        let mut link_health = std::mem::take(&mut self.snapshot.link_health);
+        if link_health != health {
+            health.clone_into(&mut link_health);
+        }
+        let alarm = match link.failsafe().alarm() {
+            Some(a) => {
+                let text = format!("{a:?}");
+                match self.snapshot.alarm.take() {
+                    Some(old) if old == text => Some(old),
+                    _ => Some(text),
+                }
+            }
+            None => None,
+        };
         self.snapshot = Snapshot {
             time_s: t_s,
             armed: link.failsafe().is_armed(),
-            link_health: match self.health {
-                Some(Health::Connected) => "connected",
-                Some(Health::Degraded) => "degraded",
-                _ => "lost",
-            }
-            .to_string(),
+            link_health,
             depth_m: t.map(|t| t.depth_m),
             heading_deg: t.map(|t| t.heading_deg),
             pitch_deg: t.map(|t| t.pitch_deg),
@@ -264,7 +279,7 @@ impl StationCore {
             humidity_pct: t.map(|t| t.humidity_pct),
             water_temp_c: t.map(|t| t.water_temp_c),
             tether_v: s.map(|s| s.tether_v),
-            alarm: link.failsafe().alarm().map(|a| format!("{a:?}")),
+            alarm,
         };
     }
 
@@ -276,3 +291,22 @@ impl StationCore {
         )
     }
 }
+
+crate::clone_fields!(Snapshot {
+    time_s,
+    armed,
+    link_health,
+    depth_m,
+    heading_deg,
+    pitch_deg,
+    roll_deg,
+    depth_estimate_m,
+    heading_estimate_deg,
+    depth_setpoint_m,
+    heading_setpoint_deg,
+    thrust,
+    humidity_pct,
+    water_temp_c,
+    tether_v,
+    alarm
+});

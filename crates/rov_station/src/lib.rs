@@ -16,6 +16,23 @@
     )
 )]
 
+/// `Clone` with a field-wise `clone_from`: the runtime copies its view into the shared
+/// slot every tick, and a field-wise `clone_from` reuses the strings' and vectors'
+/// memory (derived `clone_from` clones anew), so publishing does not allocate.
+macro_rules! clone_fields {
+    ($t:ty { $($f:ident),+ $(,)? }) => {
+        impl Clone for $t {
+            fn clone(&self) -> Self {
+                Self { $($f: self.$f.clone()),+ }
+            }
+            fn clone_from(&mut self, other: &Self) {
+                $(self.$f.clone_from(&other.$f);)+
+            }
+        }
+    };
+}
+pub(crate) use clone_fields;
+
 pub mod core;
 pub mod hold;
 pub mod metrics;

@@ -46,15 +46,19 @@ use rov_driver::{LinkConfig, MonoClock};
 use crate::core::{Snapshot, StationCommand};
 
 pub mod alarms;
+pub mod dive;
 mod engine;
 #[cfg(feature = "gamepad")]
 pub mod gamepad;
 pub mod history;
 mod live;
+pub mod pad;
 pub mod predict;
+pub mod priority;
 pub mod reconnect;
 pub mod recorder;
 pub mod replay;
+pub mod settings;
 pub mod shaping;
 mod sim;
 pub mod timing;
@@ -63,16 +67,17 @@ pub mod view;
 #[cfg(test)]
 mod tests;
 
-pub use alarms::{AlarmConfig, AlarmKind, AlarmState};
+pub use alarms::{AlarmConfig, AlarmKind, AlarmLevel, AlarmState, Limit};
 pub use history::{Channel, History, HistorySample, decimate_min_max};
 pub use reconnect::{PortLister, PortView, ReconnectSettings};
 pub use replay::VirtualReplay;
+pub use rov_vehicle::FaultConfig as SimFaults;
 pub use shaping::{AxisShaping, GAIN_STEPS_PCT, Gain, StickShaping};
 pub use sim::VirtualStation;
 pub use timing::TickStats;
 pub use view::{
-    AxisModeView, AxisView, CameraView, HealthView, LinkView, PadStatus, PilotView, Quality,
-    RecordingView, ReplayView, Source, StationView,
+    AxisModeView, AxisView, CameraView, HealthView, IndexedEvent, LinkView, PadStatus, PilotView,
+    Quality, RecordingView, ReplayView, STALE_AFTER_S, Source, StaleView, StationView,
 };
 
 /// How to reach the vehicle.
@@ -99,6 +104,10 @@ pub struct RuntimeConfig {
     pub link: LinkConfig,
     /// Stick shaping.
     pub shaping: StickShaping,
+    /// The gamepad map.
+    pub pad_map: pad::PadMap,
+    /// Where the gamepad's Record button records (None: the button does nothing).
+    pub recordings_dir: Option<PathBuf>,
     /// Initial gain step (index into [`GAIN_STEPS_PCT`]).
     pub gain_index: usize,
     /// Alarm thresholds.
@@ -107,6 +116,9 @@ pub struct RuntimeConfig {
     pub gamepad: bool,
     /// Seed of the simulated vehicle's sensor noise.
     pub sim_seed: u64,
+    /// Faults the simulated vehicle injects on its link (none by default: a clean
+    /// link; for training and tests).
+    pub sim_faults: rov_vehicle::FaultConfig,
     /// Keyboard sticks older than this count as released, µs.
     pub keyboard_timeout_us: u64,
     /// Recording waits for the writer instead of dropping messages when its queue is
@@ -126,10 +138,13 @@ impl Default for RuntimeConfig {
             config_toml: String::new(),
             link: LinkConfig::default(),
             shaping: StickShaping::default(),
+            pad_map: pad::PadMap::default(),
+            recordings_dir: None,
             gain_index: Gain::default().index(),
             alarms: AlarmConfig::default(),
             gamepad: true,
             sim_seed: 1,
+            sim_faults: rov_vehicle::FaultConfig::none(),
             keyboard_timeout_us: 300_000,
             record_blocking: false,
             reconnect: ReconnectSettings::default(),
@@ -172,6 +187,24 @@ pub enum CameraCommand {
     Focus(f64),
 }
 
+/// Pre-dive checklist actions (see [`dive`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ChecklistCommand {
+    /// The heading shown matches a known bearing.
+    CompassOk,
+    /// It does not.
+    CompassBad,
+    /// Zero the depth here (at the surface): the pressure now becomes the surface
+    /// pressure.
+    ZeroDepth,
+    /// Run the thruster test (armed; the GUI asks the pilot to confirm first).
+    StartThrusterTest,
+    /// Stop the thruster test.
+    AbortThrusterTest,
+    /// Record the checklist's result in the session now.
+    Record,
+}
+
 /// Replay controls.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum ReplayCommand {
@@ -185,8 +218,10 @@ pub enum ReplayCommand {
     Speed(f64),
     /// Seek to s since the session start.
     Seek(f64),
-    /// One message forward (pauses).
+    /// One control tick forward (pauses).
     Step,
+    /// One control tick back (pauses).
+    StepBack,
 }
 
 /// Everything the GUI (or a script) can ask of the runtime.
@@ -208,6 +243,14 @@ pub enum RuntimeCommand {
     Shaping(StickShaping),
     /// Acknowledge an alarm (`None`: all).
     AckAlarm(Option<AlarmKind>),
+    /// New alarm limits (the pilot's settings).
+    AlarmLimits(AlarmConfig),
+    /// A note for the dive log (recorded as an event).
+    Note(String),
+    /// A marker in the dive log (recorded as an event with the depth and heading).
+    Marker,
+    /// A pre-dive checklist action.
+    Checklist(ChecklistCommand),
     /// Zero the tether turns counter.
     ResetTurns,
     /// Start recording to a file.
@@ -216,6 +259,11 @@ pub enum RuntimeCommand {
     StopRecording,
     /// Replay controls (replay sources only).
     Replay(ReplayCommand),
+    /// A new gamepad map (axes, buttons, shift layer).
+    PadMap(pad::PadMap),
+    /// A virtual gamepad's raw state (tests and other input devices): mapped exactly
+    /// like a real pad's, and stale after [`RuntimeConfig::keyboard_timeout_us`].
+    PadInput(pad::PadState),
     /// Fault injection for tests: block the control thread for this long.
     InjectStall(Duration),
     /// Stop the runtime.
@@ -249,24 +297,40 @@ pub enum RuntimeError {
     Thread(String),
 }
 
+/// A fresh recording file in `dir`: `session-<unix time>.mcap` (one naming rule for the
+/// REC button, the gamepad and `topside`). Creates the folder.
+#[must_use]
+pub fn recording_path_in(dir: &Path) -> PathBuf {
+    let secs = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_secs());
+    let _ = std::fs::create_dir_all(dir);
+    let mut p = dir.join(format!("session-{secs}.mcap"));
+    let mut k = 1;
+    while p.exists() {
+        k += 1;
+        p = dir.join(format!("session-{secs}-{k}.mcap"));
+    }
+    p
+}
+
 /// Command queue capacity.
 pub const COMMAND_CAPACITY: usize = 256;
 
-/// Gamepad state shared with the gamepad thread.
+/// Gamepad state shared with the gamepad thread: the raw pad only (the control tick
+/// maps it, see [`pad`]).
 #[derive(Debug, Clone, Default)]
 pub(crate) struct PadSlot {
-    /// Raw sticks.
-    pub sticks: rov_control::PilotInput,
+    /// Raw axes and buttons (zero unless `live`).
+    pub state: pad::PadState,
+    /// Raw axes and buttons as reported, also before the centre rule (setup page).
+    pub raw: pad::PadState,
     /// Last poll of the gamepad thread, µs of the runtime clock.
     pub heartbeat_us: u64,
     /// Sticks usable (connected, passed through centre since connecting).
     pub live: bool,
     /// Status for the GUI.
     pub status: view::PadStatus,
-    /// Buttons held, by name.
-    pub buttons: Vec<String>,
-    /// The arm button is held.
-    pub arm_held: bool,
 }
 
 /// State shared between the runtime threads and the handle.
@@ -286,6 +350,14 @@ pub(crate) struct Shared {
     pub commands_dropped: AtomicU64,
     pub running: AtomicBool,
     pub clock: MonoClock,
+    /// What each real-time thread got (thread name, grant).
+    pub priorities: Mutex<Vec<(String, priority::Granted)>>,
+    /// Heap allocations of the control thread's wake-ups (tests only).
+    #[cfg(test)]
+    pub test_allocations: AtomicU64,
+    /// Control thread wake-ups counted (tests only).
+    #[cfg(test)]
+    pub test_wakeups: AtomicU64,
 }
 
 impl Shared {
@@ -303,6 +375,11 @@ impl Shared {
             commands_dropped: AtomicU64::new(0),
             running: AtomicBool::new(true),
             clock,
+            priorities: Mutex::new(Vec::new()),
+            #[cfg(test)]
+            test_allocations: AtomicU64::new(0),
+            #[cfg(test)]
+            test_wakeups: AtomicU64::new(0),
         }
     }
 }
@@ -396,6 +473,12 @@ impl StationHandle {
         s
     }
 
+    /// The priority each real-time thread got (thread name, grant).
+    #[must_use]
+    pub fn priorities(&self) -> Vec<(String, priority::Granted)> {
+        lock(&self.shared.priorities).clone()
+    }
+
     /// Wall timestamps of the last ticks, µs of [`StationHandle::now_us`]'s clock.
     #[must_use]
     pub fn tick_times(&self) -> Vec<u64> {
@@ -476,6 +559,23 @@ impl Runtime {
 
 pub(crate) fn command_channel() -> (SyncSender<RuntimeCommand>, Receiver<RuntimeCommand>) {
     sync_channel(COMMAND_CAPACITY)
+}
+
+/// Spawns a real-time thread: it raises its own priority first (see [`priority`]) and
+/// records what it got.
+pub(crate) fn spawn_raised(
+    name: &str,
+    rt: u8,
+    shared: &Arc<Shared>,
+    f: impl FnOnce() + Send + 'static,
+) -> Result<JoinHandle<()>, RuntimeError> {
+    let shared = Arc::clone(shared);
+    let label = name.to_string();
+    spawn_named(name, move || {
+        let granted = priority::raise_current(rt);
+        lock(&shared.priorities).push((label, granted));
+        f();
+    })
 }
 
 pub(crate) fn spawn_named(

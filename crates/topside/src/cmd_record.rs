@@ -369,13 +369,13 @@ pub fn run(args: RecordArgs) -> anyhow::Result<ExitCode> {
     }
     let cfg = runtime_config(args.seed)?;
     let wall = Instant::now();
-    let refused_arm = if args.fast {
-        record_fast(cfg, &args, script)?
+    let (refused_arm, control) = if args.fast {
+        (record_fast(cfg, &args, script)?, serde_json::Value::Null)
     } else {
         record_real_time(cfg, &args, script)?
     };
     let wall_s = wall.elapsed().as_secs_f64();
-    summarize(&args, wall_s, refused_arm)
+    summarize(&args, wall_s, refused_arm, control)
 }
 
 fn record_fast(cfg: RuntimeConfig, args: &RecordArgs, script: Script) -> anyhow::Result<bool> {
@@ -401,7 +401,30 @@ fn record_fast(cfg: RuntimeConfig, args: &RecordArgs, script: Script) -> anyhow:
     Ok(refused)
 }
 
-fn record_real_time(cfg: RuntimeConfig, args: &RecordArgs, script: Script) -> anyhow::Result<bool> {
+/// The control loop's timing of a real-time run: ticks, missed ticks (started 20 ms or
+/// more late, or skipped), the 99th percentile of the lateness (actual start minus
+/// scheduled start) and the priority the control thread got.
+fn control_json(handle: &StationHandle) -> serde_json::Value {
+    let t = handle.tick_stats();
+    let priority = handle
+        .priorities()
+        .into_iter()
+        .find(|(n, _)| n == "station-control")
+        .map_or_else(String::new, |(_, g)| g.to_string());
+    serde_json::json!({
+        "ticks": t.ticks,
+        "missed": t.missed,
+        "late_p99_ms": t.p99_late_us as f64 * 1e-3,
+        "late_max_ms": t.max_late_us as f64 * 1e-3,
+        "priority": priority,
+    })
+}
+
+fn record_real_time(
+    cfg: RuntimeConfig,
+    args: &RecordArgs,
+    script: Script,
+) -> anyhow::Result<(bool, serde_json::Value)> {
     let handle = Runtime::start(cfg).context("starting the station")?;
     handle.start_recording(&args.out);
     let mut pilot = Pilot::new(&handle, script);
@@ -421,12 +444,18 @@ fn record_real_time(cfg: RuntimeConfig, args: &RecordArgs, script: Script) -> an
     std::thread::sleep(Duration::from_secs_f64(2.0 * STEP_S));
     let refused = pilot.refused_arm;
     drop(pilot);
+    let control = control_json(&handle);
     // Shutting down finishes the recording (footer written) before the threads stop.
     handle.shutdown();
-    Ok(refused)
+    Ok((refused, control))
 }
 
-fn summarize(args: &RecordArgs, wall_s: f64, refused_arm: bool) -> anyhow::Result<ExitCode> {
+fn summarize(
+    args: &RecordArgs,
+    wall_s: f64,
+    refused_arm: bool,
+    control: serde_json::Value,
+) -> anyhow::Result<ExitCode> {
     let session = rov_session::open(&args.out)
         .with_context(|| format!("reading back {}", args.out.display()))?;
     let topics: serde_json::Map<String, serde_json::Value> = session
@@ -450,6 +479,7 @@ fn summarize(args: &RecordArgs, wall_s: f64, refused_arm: bool) -> anyhow::Resul
             "complete": session.is_complete(),
             "armed_as_scripted": !refused_arm,
             "topics": topics,
+            "control": control,
         });
         println!("{j}");
     } else {

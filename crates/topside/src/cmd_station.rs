@@ -18,7 +18,8 @@ use std::sync::atomic::Ordering;
 
 use anyhow::Context as _;
 use rov_control::ControlConfig;
-use rov_gui::{Backend as _, RealBackend, ScreenshotRequest, StationApp, Tab};
+use rov_gui::{RealBackend, ScreenshotRequest, StationApp, Tab};
+use rov_station::runtime::settings::{self, StationSettings};
 use rov_station::runtime::{Connection, Runtime, RuntimeConfig};
 
 /// The station's configuration file, relative to the working directory.
@@ -27,20 +28,45 @@ const CONFIG_PATH: &str = "config/station.toml";
 /// The runtime settings: `config/station.toml` when it exists (defaults otherwise), on
 /// the given port or the simulator. Shared with `topside record`.
 pub fn config(port: Option<String>) -> anyhow::Result<RuntimeConfig> {
-    let (control, text) = match std::fs::read_to_string(CONFIG_PATH) {
-        Ok(text) => (
-            ControlConfig::from_toml_str(&text, CONFIG_PATH)
-                .with_context(|| format!("reading {CONFIG_PATH}"))?,
-            text,
-        ),
-        Err(_) => (ControlConfig::default(), String::new()),
+    Ok(config_and_settings(port)?.0)
+}
+
+/// [`config`] and the pilot's `[station]` settings.
+pub fn config_and_settings(
+    port: Option<String>,
+) -> anyhow::Result<(RuntimeConfig, StationSettings)> {
+    let text = std::fs::read_to_string(CONFIG_PATH).unwrap_or_default();
+    let control = if text.is_empty() {
+        ControlConfig::default()
+    } else {
+        ControlConfig::from_toml_str(&text, CONFIG_PATH)
+            .with_context(|| format!("reading {CONFIG_PATH}"))?
     };
-    Ok(RuntimeConfig {
-        connection: port.map_or(Connection::Sim, Connection::Serial),
-        control,
-        config_toml: text,
-        ..RuntimeConfig::default()
-    })
+    let pilot =
+        settings::load_all(&text, CONFIG_PATH).with_context(|| format!("reading {CONFIG_PATH}"))?;
+    let (alarms, station) = (pilot.alarms, pilot.station);
+    let mut sim_faults = rov_station::runtime::SimFaults::none();
+    sim_faults.drop_reply = station.sim_link_errors_pct / 100.0;
+    Ok((
+        RuntimeConfig {
+            connection: port.map_or(Connection::Sim, Connection::Serial),
+            control,
+            config_toml: text,
+            alarms,
+            sim_faults,
+            shaping: pilot.shaping,
+            pad_map: pilot.pad,
+            ..RuntimeConfig::default()
+        },
+        station,
+    ))
+}
+
+/// "1024x600" → [1024, 600] (at least 1024×600, at most 7680×4320).
+fn parse_size(s: &str) -> Option<[f32; 2]> {
+    let (w, h) = s.split_once('x')?;
+    let (w, h) = (w.trim().parse::<u32>().ok()?, h.trim().parse::<u32>().ok()?);
+    ((1024..=7680).contains(&w) && (600..=4320).contains(&h)).then_some([w as f32, h as f32])
 }
 
 /// Opens the station window; see the module docs.
@@ -48,23 +74,37 @@ pub fn run_station(
     port: Option<String>,
     record_to: Option<PathBuf>,
     screenshot: Option<(PathBuf, f64)>,
+    window_size: Option<String>,
 ) -> anyhow::Result<ExitCode> {
-    let cfg = config(port)?;
+    let size = match window_size.as_deref().map(parse_size) {
+        Some(Some(s)) => Some(s),
+        Some(None) => anyhow::bail!(
+            "--window-size {}: expected WIDTHxHEIGHT, at least 1024x600",
+            window_size.unwrap_or_default()
+        ),
+        None => None,
+    };
+    let explicit_port = port.is_some();
+    let (mut cfg, station) = config_and_settings(port)?;
+    if !explicit_port && !station.serial_port.trim().is_empty() {
+        cfg.connection = Connection::Serial(station.serial_port.trim().to_string());
+    }
     let recordings = record_to
         .clone()
         .unwrap_or_else(|| PathBuf::from("recordings"));
-    let mut backend = RealBackend::new(cfg.clone(), recordings);
+    cfg.recordings_dir = Some(recordings.clone());
+    let backend = RealBackend::new(cfg.clone(), recordings);
     let (live, error) = match Runtime::start(cfg.clone()) {
         Ok(h) => (Some(h), None),
         Err(e) => (None, Some(format!("cannot start the station: {e}"))),
     };
-    if let (Some(h), Some(_)) = (&live, &record_to) {
-        // The same file naming as the REC button.
-        let path = backend.recording_path();
-        eprintln!("recording to {}", path.display());
-        h.start_recording(&path);
-    }
-    let mut app = StationApp::new(Box::new(backend), live);
+    // Every connection records from its start (the app starts it, with the same file
+    // naming as the REC button), unless --no-record.
+    let mut app = StationApp::new(Box::new(backend), None)
+        .with_record_on_connect(record_to.is_some() && station.record_on_connect)
+        .with_settings(PathBuf::from(CONFIG_PATH), cfg.alarms, station)
+        .with_gamepad(cfg.pad_map.clone(), cfg.shaping);
+    app.connect_handle(live);
     if let Some(e) = error {
         eprintln!("warning: {e}");
         app.set_message(e);
@@ -76,7 +116,8 @@ pub fn run_station(
         saved = Some(req.saved_flag());
         app = app.with_screenshot(req);
     }
-    rov_gui::run_native(app).map_err(|e| anyhow::anyhow!("cannot open the window: {e}"))?;
+    rov_gui::run_native_sized(app, size)
+        .map_err(|e| anyhow::anyhow!("cannot open the window: {e}"))?;
     match saved {
         Some(flag) if !flag.load(Ordering::Relaxed) => {
             eprintln!("error: the screenshot was not saved");

@@ -44,6 +44,9 @@ struct Cli {
     /// Test hook: seconds to wait before the screenshot.
     #[arg(long, value_name = "S", hide = true, default_value_t = 3.0)]
     screenshot_after_s: f64,
+    /// Window size, WIDTHxHEIGHT (default 1280x800).
+    #[arg(long, value_name = "WxH", hide = true)]
+    window_size: Option<String>,
 }
 
 #[derive(Debug, Subcommand)]
@@ -84,6 +87,7 @@ fn main() -> std::process::ExitCode {
             cli.port,
             (!cli.no_record).then_some(cli.recordings),
             cli.screenshot.map(|p| (p, cli.screenshot_after_s)),
+            cli.window_size,
         ),
     };
     match result {

@@ -126,3 +126,68 @@ fn the_station_window_renders_under_xvfb_and_screenshots_itself() {
         colours.len()
     );
 }
+
+/// The real window at the smallest and the largest size a pilot uses: the screenshot
+/// has the window's size, and the layout report written with it (the same frame's
+/// clipped controls, see rov_gui::layout) lists no control cut off; the Fly tab's main
+/// view fills the space beside the side panel. The PNGs stay in the test output.
+#[test]
+fn the_window_fits_at_1024x600_and_1920x1080_under_xvfb() {
+    let xvfb = xvfb_run();
+    for (w, h) in [(1024u32, 600u32), (1920, 1080)] {
+        let out = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(format!("station_{w}x{h}.png"));
+        let report = out.with_extension("layout.json");
+        let _ = std::fs::remove_file(&out);
+        let _ = std::fs::remove_file(&report);
+        let rec_dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(format!("station_{w}_rec"));
+        let output = Command::new(&xvfb)
+            .args(["-a", "-s", &format!("-screen 0 {w}x{h}x24")])
+            .arg(env!("CARGO_BIN_EXE_topside"))
+            .arg("--screenshot")
+            .arg(&out)
+            .args(["--screenshot-after-s", "4"])
+            .args(["--window-size", &format!("{w}x{h}")])
+            .arg("--recordings")
+            .arg(&rec_dir)
+            .current_dir(workspace_root())
+            .env("XDG_RUNTIME_DIR", std::env::temp_dir())
+            .env_remove("WAYLAND_DISPLAY")
+            .output()
+            .expect("run xvfb-run");
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert!(
+            output.status.success(),
+            "{w}x{h}: topside failed:\n{stderr}"
+        );
+        let (pw, ph, px) = rov_gui::screenshot::load_png(&out).unwrap();
+        assert_eq!((pw, ph), (w, h), "window size");
+        let n = (w * h) as usize;
+        assert!(
+            count(&px, [40, 110, 190], 6) > n / 50,
+            "{w}x{h}: no horizon sky"
+        );
+        let j: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+        // The simulated vehicle's link is clean also while the window renders (its
+        // thread has the link's priority).
+        assert_eq!(j["link_quality"], "Green", "{w}x{h}: {j}");
+        assert_eq!(j["link_errors"], 0, "{w}x{h}: {j}");
+        let clipped = j["clipped"].as_array().unwrap();
+        assert!(
+            clipped.is_empty(),
+            "{w}x{h}: controls cut off: {clipped:#?}"
+        );
+        let main = j["main_view"].as_array().unwrap();
+        let mw = main[2].as_f64().unwrap() - main[0].as_f64().unwrap();
+        let mh = main[3].as_f64().unwrap() - main[1].as_f64().unwrap();
+        assert!(
+            mw > 0.6 * f64::from(w) && mh > f64::from(h) - 200.0,
+            "{w}x{h}: main view {main:?}"
+        );
+        eprintln!(
+            "{w}x{h}: {} (main view {mw}x{mh}, no clipped control)",
+            out.display()
+        );
+        let _ = std::fs::remove_dir_all(&rec_dir);
+    }
+}

@@ -14,15 +14,21 @@ use rov_session::{
 };
 
 use crate::core::{StationCommand, StationCore};
-use crate::runtime::alarms::{AlarmChange, AlarmInputs, Alarms};
+use crate::runtime::alarms::{AlarmChange, AlarmInputs, AlarmLevel, Alarms};
+use crate::runtime::dive::{
+    DiveEvent, DiveLog, Item, ItemStatus, THRUSTERS, ThrusterTest, thruster_detail,
+};
 use crate::runtime::history::HistorySample;
+use crate::runtime::pad::{Action, PadButton, PadState};
 use crate::runtime::predict::{Anchor, Predictor};
 use crate::runtime::recorder::{RecordItem, Recorder};
 use crate::runtime::shaping::{ArmHold, Gain, StickShaping, to_controller};
 use crate::runtime::view::{AxisModeView, PadStatus, Pipeline, Source, link_state};
 use crate::runtime::{
-    CameraCommand, GainCommand, RuntimeCommand, RuntimeConfig, RuntimeError, Shared, lock, try_lock,
+    CameraCommand, ChecklistCommand, GainCommand, RuntimeCommand, RuntimeConfig, RuntimeError,
+    Shared, lock, try_lock,
 };
+use rov_types::conventions::PhysicsThrust;
 
 /// Gamepad sticks older than this (gamepad thread heartbeat) count as centred, µs.
 const PAD_STALE_US: u64 = 100_000;
@@ -71,7 +77,53 @@ pub(crate) struct Engine {
     prev_armed: bool,
     overridden: (bool, bool),
     source_label: String,
+    /// Time of the last recorded message, ns: later messages are stamped no earlier, so
+    /// a recording is in time order even when a frame received before a tick is
+    /// handled after it.
+    last_record_ns: std::cell::Cell<u64>,
+    /// When the current hint was shown, µs.
+    hint_since_us: Option<u64>,
+    dive: DiveLog,
+    thruster_test: Option<ThrusterTest>,
+    /// The thrust the test commanded last tick (ramped at 10 %/tick).
+    test_pct: [f64; 3],
+    last_pressure_mbar: Option<f64>,
+    /// A virtual pad's last state and when it came.
+    virtual_pad: Option<(PadState, u64)>,
+    virtual_centred: bool,
+    /// Buttons held at the last tick (press edges).
+    pad_buttons: u32,
+    /// The feedforward model's name of the last tick (reused).
+    last_model_name: String,
+    /// The inputs of the last automatic checklist update (updated on change only).
+    auto_key: Option<(u8, i64, i64, bool)>,
 }
+
+/// The names of the buttons held (an empty list, no allocation, when none is).
+fn held_names(bits: u32) -> Vec<String> {
+    if bits == 0 {
+        return Vec::new();
+    }
+    PadButton::ALL
+        .iter()
+        .filter(|b| bits & b.bit() != 0)
+        .map(|b| b.key().to_string())
+        .collect()
+}
+
+/// Shown when the gamepad thread stops reporting.
+static STALE_PAD: PadStatus = PadStatus::Stale;
+
+/// A virtual pad's sticks are all inside the centre zone.
+fn virtual_centred(st: &PadState) -> bool {
+    st.axes.iter().take(4).all(|x| x.abs() < 0.1)
+}
+
+/// How long a hint stays in the view, µs.
+const HINT_US: u64 = 4_000_000;
+
+/// The hint after a short press of the arm button.
+pub const ARM_HINT: &str = "Hold to arm: keep the arm button (or Space) pressed for 1 s";
 
 fn axis_mode(m: AxisMode) -> Mode {
     match m {
@@ -104,6 +156,14 @@ fn nav_record(t: &Telemetry) -> NavRecord {
     }
 }
 
+/// The internal temperature the vehicle reports, °C: the CPU board's sensor (CSR 0x82,
+/// marked reserved in the Pro 4's map; read as whole °C, to be checked on hardware).
+/// 0 means not reported (the simulated vehicle leaves it at 0).
+fn internal_temp_c(s: StatusTelemetry) -> Option<f64> {
+    let raw = s.raw.internal_temp_cpu_raw;
+    (raw != 0).then(|| f64::from(raw))
+}
+
 fn status_record(s: &StatusTelemetry) -> StatusRecord {
     StatusRecord {
         water_temp_c: s.water_temp_c,
@@ -127,6 +187,9 @@ impl Engine {
             Source::Serial(p) => format!("serial:{p}"),
             _ => "sim".to_string(),
         };
+        let mut pipeline = Pipeline::new(source);
+        pipeline.view.alarm_limits = cfg.alarms;
+        pipeline.view.pilot.pad_map = cfg.pad_map.clone();
         Ok(Self {
             core,
             models,
@@ -134,7 +197,7 @@ impl Engine {
             predictor: Predictor::default(),
             shaping: cfg.shaping,
             gain: Gain::with_index(cfg.gain_index),
-            pipeline: Pipeline::new(source),
+            pipeline,
             keyboard: None,
             arm: ArmHold::default(),
             arm_pad: ArmHold::default(),
@@ -157,14 +220,32 @@ impl Engine {
             prev_armed: false,
             overridden: (false, false),
             source_label,
+            last_record_ns: std::cell::Cell::new(0),
+            hint_since_us: None,
+            dive: DiveLog::default(),
+            thruster_test: None,
+            test_pct: [0.0; 3],
+            last_pressure_mbar: None,
+            virtual_pad: None,
+            virtual_centred: false,
+            pad_buttons: 0,
+            last_model_name: String::new(),
+            auto_key: None,
             cfg,
         })
     }
 
     fn record(&self, item: impl FnOnce(u64) -> RecordItem, now_us: u64) {
         if let Some(r) = &self.recorder {
-            r.send(item(r.t_ns(now_us)));
+            let t = r.t_ns(now_us).max(self.last_record_ns.get());
+            self.last_record_ns.set(t);
+            r.send(item(t));
         }
+    }
+
+    fn hint(&mut self, text: &str, now_us: u64) {
+        self.pipeline.view.hint = Some(text.to_string());
+        self.hint_since_us = Some(now_us);
     }
 
     /// Records `/truth/state` from the simulated vehicle's thread (live sim mode).
@@ -207,7 +288,12 @@ impl Engine {
     }
 
     fn refuse(&mut self, now_us: u64, what: &str, why: String) {
-        let text = format!("{what} refused: {why}");
+        // "cannot arm: ..." says it already.
+        let text = if why.starts_with("cannot") {
+            why
+        } else {
+            format!("{what} refused: {why}")
+        };
         self.pipeline.view.last_refusal = Some(text.clone());
         self.event(now_us, "refused", Severity::Warning, text);
     }
@@ -219,6 +305,7 @@ impl Engine {
         match ev {
             LinkEvent::Telemetry(t) => {
                 let r = nav_record(t);
+                self.last_pressure_mbar = Some(t.pressure_mbar);
                 self.pipeline.nav(t_s, &r);
                 self.last_nav_us = Some(now_us);
                 self.record(|ts| RecordItem::Nav(ts, r), now_us);
@@ -235,6 +322,7 @@ impl Engine {
             LinkEvent::Status(s) => {
                 let r = status_record(s);
                 self.pipeline.status(&r);
+                self.pipeline.view.health.internal_temp_c = internal_temp_c(*s);
                 self.last_status = Some(*s);
                 self.record(|ts| RecordItem::Status(ts, r), now_us);
             }
@@ -250,11 +338,11 @@ impl Engine {
                 }
                 self.event(now_us, "link_state", sev, text);
             }
-            LinkEvent::FrameTx { bytes, time_us } => {
+            LinkEvent::FrameTx { bytes, time_us } if self.recorder.is_some() => {
                 let b = bytes.clone();
                 self.record(|t| RecordItem::Raw(Direction::Tx, t, b), *time_us);
             }
-            LinkEvent::FrameRx { bytes, time_us } => {
+            LinkEvent::FrameRx { bytes, time_us } if self.recorder.is_some() => {
                 let b = bytes.clone();
                 self.record(|t| RecordItem::Raw(Direction::Rx, t, b), *time_us);
             }
@@ -291,7 +379,12 @@ impl Engine {
                     Err(e) => self.refuse(now_us, &label, e.to_string()),
                 }
             }
-            RuntimeCommand::ArmButton(b) => self.arm.report(b, now_us),
+            RuntimeCommand::ArmButton(b) => {
+                self.arm.report(b, now_us);
+                if self.arm.take_released_early() {
+                    self.hint(ARM_HINT, now_us);
+                }
+            }
             RuntimeCommand::ToggleHold(axis) => {
                 let m = if self.core.holding(axis) {
                     ModeCommand::Disengage(axis)
@@ -324,12 +417,44 @@ impl Engine {
             RuntimeCommand::Shaping(s) => self.shaping = s,
             RuntimeCommand::AckAlarm(k) => {
                 self.alarms.acknowledge(k);
-                self.pipeline.view.alarms = self.alarms.list();
+                self.alarms.list_into(&mut self.pipeline.view.alarms);
+            }
+            RuntimeCommand::AlarmLimits(c) => {
+                self.alarms.set_config(c);
+                self.pipeline.view.alarm_limits = c;
+                self.event(
+                    now_us,
+                    "settings",
+                    Severity::Info,
+                    "alarm limits changed".into(),
+                );
             }
             RuntimeCommand::ResetTurns => self.pipeline.reset_turns(),
-            RuntimeCommand::StartRecording(path) => self.start_recording(&path, now_us),
-            RuntimeCommand::StopRecording => self.stop_recording(now_us),
+            RuntimeCommand::Note(text) => {
+                let n = self.dive.note();
+                let text = format!("note {n}: {} ({})", text.trim(), self.where_now());
+                self.event(now_us, "note", Severity::Info, text);
+            }
+            RuntimeCommand::Marker => {
+                let n = self.dive.marker();
+                let text = format!("marker {n} ({})", self.where_now());
+                self.event(now_us, "marker", Severity::Info, text);
+            }
+            RuntimeCommand::Checklist(c) => self.checklist(link, c, now_us),
+            RuntimeCommand::StartRecording(path) => {
+                self.start_recording(&path, now_us);
+                link.set_record_frames(self.recorder.is_some());
+            }
+            RuntimeCommand::StopRecording => {
+                self.stop_recording(now_us);
+                link.set_record_frames(false);
+            }
             RuntimeCommand::Replay(_) => {}
+            RuntimeCommand::PadMap(m) => {
+                self.pipeline.view.pilot.pad_map = m.clone();
+                self.cfg.pad_map = m;
+            }
+            RuntimeCommand::PadInput(st) => self.virtual_pad = Some((st, now_us)),
             RuntimeCommand::InjectStall(d) => return Followup::Stall(d),
             RuntimeCommand::Shutdown => return Followup::Shutdown,
         }
@@ -350,6 +475,7 @@ impl Engine {
         };
         match Recorder::start(path, &info, now_us, self.cfg.record_blocking) {
             Ok(r) => {
+                self.last_record_ns.set(0);
                 self.recorder = Some(r);
                 let v = &mut self.pipeline.view.recording;
                 v.path = Some(path.to_path_buf());
@@ -358,7 +484,7 @@ impl Engine {
                     now_us,
                     "recording",
                     Severity::Info,
-                    format!("recording to {}", path.display()),
+                    format!("recording to {}", file_name(path)),
                 );
             }
             Err(e) => {
@@ -391,7 +517,7 @@ impl Engine {
                     Severity::Info,
                     format!(
                         "recording stopped: {} ({} messages)",
-                        path.display(),
+                        file_name(&path),
                         s.messages
                     ),
                 );
@@ -408,19 +534,394 @@ impl Engine {
         }
     }
 
-    fn pilot_input(&mut self, now_us: u64) -> (PilotInput, &'static str) {
-        let pad = {
+    /// "at 12.3 m, heading 090°, dive 03:12" for notes and markers.
+    fn where_now(&self) -> String {
+        let s = &self.pipeline.view.snapshot;
+        let d = s
+            .depth_m
+            .map_or_else(|| "depth ---".into(), |d| format!("at {d:.1} m"));
+        let h = s.heading_deg.map_or_else(
+            || "heading ---".into(),
+            |h| format!("heading {:03.0}°", h.rem_euclid(360.0)),
+        );
+        let t = self.dive.view().dive_s as u64;
+        format!("{d}, {h}, dive {:02}:{:02}", t / 60, t % 60)
+    }
+
+    fn set_item(&mut self, item: Item, status: ItemStatus, detail: String) {
+        if let Some(i) = self.pipeline.view.checklist.item_mut(item) {
+            i.status = status;
+            i.detail = detail;
+        }
+    }
+
+    fn checklist(&mut self, link: &mut Link, c: ChecklistCommand, now_us: u64) {
+        let t_s = now_us as f64 * 1e-6;
+        match c {
+            ChecklistCommand::CompassOk | ChecklistCommand::CompassBad => {
+                let h = self.pipeline.view.snapshot.heading_deg;
+                let hs = h.map_or_else(
+                    || "---".into(),
+                    |h| format!("{:03.0}°", h.rem_euclid(360.0)),
+                );
+                let (st, d) = match (c, h) {
+                    (_, None) => (ItemStatus::Fail, "no heading from the vehicle".to_string()),
+                    (ChecklistCommand::CompassOk, Some(_)) => (
+                        ItemStatus::Pass,
+                        format!("heading {hs} matches the known bearing"),
+                    ),
+                    _ => (ItemStatus::Fail, format!("heading {hs} does not match")),
+                };
+                self.set_item(Item::Compass, st, d);
+            }
+            ChecklistCommand::ZeroDepth => {
+                let depth = self.pipeline.view.snapshot.depth_m;
+                match (self.last_pressure_mbar, depth) {
+                    (Some(p), Some(d)) if d.abs() < 2.0 => {
+                        let was = link.config().conventions.surface_pressure_mbar;
+                        link.set_surface_pressure_mbar(p);
+                        let cmd =
+                            StationCommand::Mode(ModeCommand::SetSurfaceTare { pressure_mbar: p });
+                        let _ = self.core.command(link, cmd, now_us);
+                        let text = format!(
+                            "depth zeroed: surface pressure {p:.0} mbar (was {was:.0}; depth read {d:+.2} m)"
+                        );
+                        self.event(now_us, "depth_zero", Severity::Info, text.clone());
+                        self.set_item(Item::DepthZero, ItemStatus::Pass, text);
+                    }
+                    (_, Some(d)) => self.set_item(
+                        Item::DepthZero,
+                        ItemStatus::Fail,
+                        format!("not at the surface ({d:.1} m): zero at the surface"),
+                    ),
+                    _ => self.set_item(
+                        Item::DepthZero,
+                        ItemStatus::Fail,
+                        "no pressure reading".into(),
+                    ),
+                }
+            }
+            ChecklistCommand::StartThrusterTest => {
+                if !link.failsafe().is_armed() {
+                    self.set_item(
+                        Item::Thrusters,
+                        ItemStatus::Fail,
+                        "arm first (the test drives each thruster for 1 s)".into(),
+                    );
+                    return;
+                }
+                // Holds off: the test commands the thrusters itself.
+                for axis in [Axis::Depth, Axis::Heading] {
+                    if self.core.holding(axis) {
+                        let m = StationCommand::Mode(ModeCommand::Disengage(axis));
+                        let _ = self.core.command(link, m, now_us);
+                    }
+                }
+                let idle = self.last_status.map(|s| s.rail_12v_a);
+                let mut test = ThrusterTest {
+                    started_s: t_s,
+                    ..ThrusterTest::default()
+                };
+                for r in &mut test.results {
+                    r.idle_a = idle;
+                }
+                self.thruster_test = Some(test);
+                self.test_pct = [0.0; 3];
+                self.set_item(Item::Thrusters, ItemStatus::Running, "running".into());
+                self.event(
+                    now_us,
+                    "checklist",
+                    Severity::Info,
+                    "thruster test started".into(),
+                );
+            }
+            ChecklistCommand::AbortThrusterTest => {
+                self.end_thruster_test(now_us, Some("stopped by the pilot"))
+            }
+            ChecklistCommand::Record => self.record_checklist(now_us),
+        }
+    }
+
+    fn record_checklist(&mut self, now_us: u64) {
+        let c = &self.pipeline.view.checklist;
+        let all = c.passed() == Item::ALL.len();
+        let text = c.summary();
+        self.pipeline.view.checklist.recorded = true;
+        let sev = if all {
+            Severity::Info
+        } else {
+            Severity::Warning
+        };
+        self.event(now_us, "checklist", sev, text);
+    }
+
+    fn end_thruster_test(&mut self, now_us: u64, aborted: Option<&str>) {
+        let Some(test) = self.thruster_test.take() else {
+            return;
+        };
+        self.test_pct = [0.0; 3];
+        self.pipeline.view.checklist.test_running = None;
+        self.pipeline.view.checklist.thrusters = test.results;
+        let detail = thruster_detail(&test.results);
+        let (st, text) = match aborted {
+            Some(why) => (ItemStatus::Fail, format!("aborted ({why}); {detail}")),
+            None => {
+                let dead: Vec<&str> = THRUSTERS
+                    .iter()
+                    .zip(&test.results)
+                    .filter(|(_, r)| !r.drew_current())
+                    .map(|(n, _)| *n)
+                    .collect();
+                if dead.is_empty() {
+                    (ItemStatus::Pass, detail)
+                } else {
+                    (
+                        ItemStatus::Fail,
+                        format!("no current rise on {}; {detail}", dead.join(", ")),
+                    )
+                }
+            }
+        };
+        self.event(
+            now_us,
+            "checklist",
+            Severity::Info,
+            format!("thruster test: {text}"),
+        );
+        self.set_item(Item::Thrusters, st, text);
+    }
+
+    /// The thruster test's command for this tick (after the controller's), or None.
+    fn thruster_test_tick(
+        &mut self,
+        link: &mut Link,
+        raw: &PilotInput,
+        now_us: u64,
+    ) -> Option<[f64; 3]> {
+        let test = self.thruster_test?;
+        let t_s = now_us as f64 * 1e-6;
+        let abort = if !link.failsafe().is_armed() {
+            Some("disarmed")
+        } else if link.health() == Health::Lost {
+            Some("link lost")
+        } else if raw.surge.abs() > 0.2 || raw.yaw.abs() > 0.2 || raw.vertical.abs() > 0.2 {
+            Some("stick moved")
+        } else {
+            None
+        };
+        if abort.is_some() {
+            self.end_thruster_test(now_us, abort);
+            return None;
+        }
+        let Some((target, running)) = test.command(t_s) else {
+            self.end_thruster_test(now_us, None);
+            return None;
+        };
+        // Ramp at the output guard's default rate (10 % a tick).
+        for (p, t) in self.test_pct.iter_mut().zip(target) {
+            *p += (t - *p).clamp(-10.0, 10.0);
+        }
+        let pct = self.test_pct;
+        link.set_thrust(&PhysicsThrust {
+            port_pct: pct[0],
+            starboard_pct: pct[1],
+            vertical_pct: pct[2],
+        });
+        let current = self.last_status.map(|s| s.rail_12v_a);
+        if let Some(t) = self.thruster_test.as_mut()
+            && let Some(i) = running
+            && let Some(r) = t.results.get_mut(i)
+        {
+            r.commanded_pct = r.commanded_pct.max(pct.get(i).copied().unwrap_or(0.0));
+            if let Some(a) = current {
+                r.peak_a = Some(r.peak_a.map_or(a, |p: f64| p.max(a)));
+            }
+        }
+        if let Some(t) = &self.thruster_test {
+            self.pipeline.view.checklist.thrusters = t.results;
+        }
+        self.pipeline.view.checklist.test_running = Some(running);
+        Some(pct)
+    }
+
+    /// The items the station checks by itself: leak and recording.
+    fn auto_items(&mut self) {
+        if self.pipeline.view.checklist.recorded {
+            return;
+        }
+        let lim = self.alarms.config();
+        let h = self.pipeline.view.health.humidity_pct;
+        let rate = self.alarms.humidity_rate_pct_per_min();
+        // Only when something shown changes (no text formatted per tick).
+        let key = (
+            u8::from(h.is_some()) + 2 * u8::from(rate.is_some()),
+            h.map_or(0, |h| (h * 10.0).round() as i64),
+            rate.map_or(0, |r| (r * 10.0).round() as i64),
+            self.pipeline.view.recording.path.is_some(),
+        );
+        if self.auto_key == Some(key) {
+            return;
+        }
+        self.auto_key = Some(key);
+        let (st, d) = match h {
+            None => (
+                ItemStatus::Pending,
+                "waiting for the humidity reading".to_string(),
+            ),
+            Some(h) if h >= lim.humidity_pct.warn => (
+                ItemStatus::Fail,
+                format!(
+                    "humidity {h:.1} % at or above {:.0} %",
+                    lim.humidity_pct.warn
+                ),
+            ),
+            Some(h) => match rate {
+                Some(r) if r >= lim.humidity_rise_pct_per_min.warn => (
+                    ItemStatus::Fail,
+                    format!("humidity {h:.1} % rising {r:+.1} %/min"),
+                ),
+                Some(r) => (
+                    ItemStatus::Pass,
+                    format!("humidity {h:.1} %, {r:+.1} %/min"),
+                ),
+                None => (
+                    ItemStatus::Pass,
+                    format!("humidity {h:.1} % (rate after 10 s)"),
+                ),
+            },
+        };
+        self.set_item(Item::Leak, st, d);
+        let rec = match &self.pipeline.view.recording.path {
+            Some(p) => (
+                ItemStatus::Pass,
+                p.file_name()
+                    .map_or_else(String::new, |n| n.to_string_lossy().into_owned()),
+            ),
+            None => (ItemStatus::Fail, "not recording".to_string()),
+        };
+        self.set_item(Item::Recording, rec.0, rec.1);
+    }
+
+    /// The pad this tick: the gamepad thread's, or a virtual pad's (tests), mapped with
+    /// the pilot's map. Buttons act on their press (the shift layer while the shift
+    /// button is held); the arm button is timed like the GUI's.
+    fn pad_input(&mut self, link: &mut Link, now_us: u64) -> Option<PilotInput> {
+        let (state, raw, live) = {
             let slot = lock(&self.shared.pad);
             let fresh = now_us.saturating_sub(slot.heartbeat_us) <= PAD_STALE_US;
-            self.pipeline.view.pilot.pad = if fresh || matches!(slot.status, PadStatus::Off) {
-                slot.status.clone()
-            } else {
-                PadStatus::Unavailable("gamepad thread not responding".into())
-            };
-            self.pipeline.view.pilot.buttons.clone_from(&slot.buttons);
-            self.arm_pad.report(slot.arm_held && fresh, now_us);
-            (slot.live && fresh).then_some(slot.sticks)
+            match self.virtual_pad {
+                Some((st, t)) if now_us.saturating_sub(t) <= self.cfg.keyboard_timeout_us => {
+                    if !self.virtual_centred && virtual_centred(&st) {
+                        self.virtual_centred = true;
+                    }
+                    let live = self.virtual_centred;
+                    let status = if live {
+                        PadStatus::Connected("virtual pad".into())
+                    } else {
+                        PadStatus::WaitingForCentre("virtual pad".into())
+                    };
+                    if self.pipeline.view.pilot.pad != status {
+                        self.pipeline.view.pilot.pad = status;
+                    }
+                    (if live { st } else { PadState::default() }, st, live)
+                }
+                _ => {
+                    if self.virtual_pad.take().is_some() {
+                        self.virtual_centred = false;
+                    }
+                    let status = if fresh || matches!(slot.status, PadStatus::Off) {
+                        &slot.status
+                    } else {
+                        &STALE_PAD
+                    };
+                    if self.pipeline.view.pilot.pad != *status {
+                        self.pipeline.view.pilot.pad = status.clone();
+                    }
+                    let live = slot.live && fresh;
+                    (
+                        if live {
+                            slot.state
+                        } else {
+                            PadState::default()
+                        },
+                        if fresh { slot.raw } else { PadState::default() },
+                        live,
+                    )
+                }
+            }
         };
+        self.pipeline.view.pilot.pad_raw = raw;
+        let map = &self.cfg.pad_map;
+        let shift = map.shift.is_some_and(|b| state.held(b));
+        self.pipeline.view.pilot.shift = shift;
+        // Arm: held (in the current layer) and timed by the runtime.
+        let arm_held = PadButton::ALL
+            .iter()
+            .any(|b| state.held(*b) && map.action(*b, shift) == Some(Action::Arm));
+        self.arm_pad.report(arm_held, now_us);
+        if self.arm_pad.take_released_early() {
+            self.hint(ARM_HINT, now_us);
+        }
+        let pressed = state.buttons & !self.pad_buttons;
+        self.pad_buttons = state.buttons;
+        if pressed != 0 {
+            let actions: Vec<Action> = PadButton::ALL
+                .iter()
+                .filter(|b| pressed & b.bit() != 0)
+                .filter_map(|b| self.cfg.pad_map.action(*b, shift))
+                .collect();
+            for a in actions {
+                self.pad_action(link, a, now_us);
+            }
+        }
+        live.then(|| PilotInput {
+            surge: state.axis(self.cfg.pad_map.surge),
+            yaw: state.axis(self.cfg.pad_map.yaw),
+            // Stick up rises; positive vertical dives.
+            vertical: -state.axis(self.cfg.pad_map.vertical),
+        })
+    }
+
+    /// A gamepad button's function.
+    fn pad_action(&mut self, link: &mut Link, a: Action, now_us: u64) {
+        let cmd = match a {
+            Action::Arm => return, // timed in pad_input
+            Action::Disarm => RuntimeCommand::Station(StationCommand::Disarm),
+            Action::DepthHold => RuntimeCommand::ToggleHold(Axis::Depth),
+            Action::HeadingHold => RuntimeCommand::ToggleHold(Axis::Heading),
+            Action::GainUp => RuntimeCommand::Gain(GainCommand::Up),
+            Action::GainDown => RuntimeCommand::Gain(GainCommand::Down),
+            Action::LightsUp => {
+                RuntimeCommand::Camera(CameraCommand::Lights(f64::from(self.lights_pct) + 10.0))
+            }
+            Action::LightsDown => {
+                RuntimeCommand::Camera(CameraCommand::Lights(f64::from(self.lights_pct) - 10.0))
+            }
+            Action::TiltUp => {
+                RuntimeCommand::Camera(CameraCommand::Tilt(f64::from(self.tilt_deg) + 10.0))
+            }
+            Action::TiltDown => {
+                RuntimeCommand::Camera(CameraCommand::Tilt(f64::from(self.tilt_deg) - 10.0))
+            }
+            Action::TiltCentre => RuntimeCommand::Camera(CameraCommand::Tilt(0.0)),
+            Action::Record => {
+                if self.recorder.is_some() {
+                    RuntimeCommand::StopRecording
+                } else if let Some(dir) = self.cfg.recordings_dir.clone() {
+                    RuntimeCommand::StartRecording(crate::runtime::recording_path_in(&dir))
+                } else {
+                    return;
+                }
+            }
+            Action::Marker => RuntimeCommand::Marker,
+            Action::AckAlarms => RuntimeCommand::AckAlarm(None),
+            Action::ResetTurns => RuntimeCommand::ResetTurns,
+        };
+        let _ = self.apply(link, cmd, now_us);
+    }
+
+    fn pilot_input(&mut self, link: &mut Link, now_us: u64) -> (PilotInput, &'static str) {
+        let pad = self.pad_input(link, now_us);
         let kb = self
             .keyboard
             .filter(|(_, t)| now_us.saturating_sub(*t) <= self.cfg.keyboard_timeout_us)
@@ -445,7 +946,7 @@ impl Engine {
     pub fn tick(&mut self, link: &mut Link, now_us: u64) -> TickOutput {
         let t_s = now_us as f64 * 1e-6;
         // Arming by holding a button.
-        let (raw, input) = self.pilot_input(now_us);
+        let (raw, input) = self.pilot_input(link, now_us);
         let arm_gui = self.arm.poll(now_us);
         let arm_pad = self.arm_pad.poll(now_us);
         if (arm_gui || arm_pad) && !link.failsafe().is_armed() {
@@ -468,6 +969,7 @@ impl Engine {
         link.set_command(block);
 
         let out = self.core.tick(link, now_us);
+        let test_thrust = self.thruster_test_tick(link, &raw, now_us);
         let dt_s = self
             .last_tick_us
             .map_or(0.0, |t| now_us.saturating_sub(t) as f64 * 1e-6);
@@ -476,10 +978,12 @@ impl Engine {
         // Records: thrust, pilot, autopilot, observer (and link stats every 0.5 s).
         let c = out.command;
         let cmd = *link.command();
+        let [tp, ts, tv] =
+            test_thrust.unwrap_or([c.port_pct(), c.starboard_pct(), c.vertical_pct()]);
         let thrust = ThrustRecord {
-            port_pct: c.port_pct(),
-            starboard_pct: c.starboard_pct(),
-            vertical_pct: c.vertical_pct(),
+            port_pct: tp,
+            starboard_pct: ts,
+            vertical_pct: tv,
             lights_pct: f64::from(cmd.lights_pct),
             tilt: f64::from(cmd.tilt_deg),
             focus: f64::from(cmd.focus_pct),
@@ -493,7 +997,7 @@ impl Engine {
             heave: raw.vertical,
             armed,
             gain_pct: self.gain.pct(),
-            buttons: self.pipeline.view.pilot.buttons.clone(),
+            buttons: held_names(self.pad_buttons),
         };
         let ctl = self.core.controller();
         let ds = ctl.axis_state(Axis::Depth);
@@ -503,10 +1007,18 @@ impl Engine {
             heading_mode: axis_mode(hs.mode),
             depth_setpoint_m: ctl.depth_setpoint_m(),
             heading_setpoint_deg: ctl.heading_setpoint_deg(),
-            feedforward_model: if ctl.feedforward_enabled() {
-                ctl.model().name().to_string()
-            } else {
-                String::new()
+            // The model name is taken from the last record unless it changed (no
+            // allocation per tick).
+            feedforward_model: {
+                let name = if ctl.feedforward_enabled() {
+                    ctl.model().name()
+                } else {
+                    ""
+                };
+                if self.last_model_name != name {
+                    name.clone_into(&mut self.last_model_name);
+                }
+                std::mem::take(&mut self.last_model_name)
             },
         };
         let model_choice = ctl.model();
@@ -549,7 +1061,11 @@ impl Engine {
         self.pipeline.observer(&observer);
         self.record(|t| RecordItem::Thrust(t, thrust), now_us);
         self.record(|t| RecordItem::Pilot(t, pilot), now_us);
-        self.record(|t| RecordItem::Autopilot(t, auto), now_us);
+        if self.recorder.is_some() {
+            let rec = auto.clone();
+            self.record(|t| RecordItem::Autopilot(t, rec), now_us);
+        }
+        self.last_model_name = auto.feedforward_model;
         self.record(|t| RecordItem::Observer(t, observer), now_us);
         if self
             .last_link_us
@@ -597,8 +1113,11 @@ impl Engine {
             link_lost: link.health() == Health::Lost,
             ever_connected: self.ever_connected,
             humidity_pct: self.pipeline.view.health.humidity_pct,
+            depth_m: self.pipeline.view.snapshot.depth_m,
+            turns: Some(self.pipeline.view.turns),
             tether_v: s.map(|s| s.tether_v),
             rail_v: s.map(|s| s.rail_12v_v),
+            internal_temp_c: s.and_then(internal_temp_c),
             nav_age_s: self
                 .last_nav_us
                 .map(|t| now_us.saturating_sub(t) as f64 * 1e-6),
@@ -607,8 +1126,12 @@ impl Engine {
         };
         for change in self.alarms.evaluate(t_s, &inputs) {
             match change {
-                AlarmChange::Raised(k) => {
-                    self.event(now_us, k.key(), Severity::Alarm, k.text().to_string());
+                AlarmChange::Raised(k, level) => {
+                    let (sev, what) = match level {
+                        AlarmLevel::Alarm => (Severity::Alarm, "ALARM"),
+                        AlarmLevel::Warning => (Severity::Warning, "warning"),
+                    };
+                    self.event(now_us, k.key(), sev, format!("{} ({what})", k.text()));
                 }
                 AlarmChange::Cleared(k) => self.event(
                     now_us,
@@ -637,8 +1160,46 @@ impl Engine {
             [c.port_pct(), c.starboard_pct(), c.vertical_pct()],
         );
 
+        // Dive log and checklist.
+        match self.dive.update(t_s, self.pipeline.view.snapshot.depth_m) {
+            Some(DiveEvent::Started) => {
+                let n = self.dive.view().dives;
+                self.event(
+                    now_us,
+                    "dive_start",
+                    Severity::Info,
+                    format!("dive {n} started"),
+                );
+            }
+            Some(DiveEvent::Ended {
+                dive_s,
+                max_depth_m,
+            }) => {
+                let n = self.dive.view().dives;
+                let t = dive_s as u64;
+                let text = format!(
+                    "dive {n} ended: {:02}:{:02}, deepest {max_depth_m:.1} m",
+                    t / 60,
+                    t % 60
+                );
+                self.event(now_us, "dive_end", Severity::Info, text);
+            }
+            None => {}
+        }
+        self.pipeline.view.dive = self.dive.view();
+        self.auto_items();
+
         // View.
         self.pipeline.set_time(t_s);
+        self.pipeline
+            .sensor_lost(d.faults.depth_sensor_lost, d.faults.heading_sensor_lost);
+        if self
+            .hint_since_us
+            .is_some_and(|t| now_us.saturating_sub(t) > HINT_US)
+        {
+            self.hint_since_us = None;
+            self.pipeline.view.hint = None;
+        }
         let v = &mut self.pipeline.view;
         v.snapshot.armed = armed;
         v.snapshot.alarm = link.failsafe().alarm().map(|a| format!("{:?}", a.alarm));
@@ -651,13 +1212,15 @@ impl Engine {
             v.heading.overridden = false;
         }
         v.health.humidity_rate_pct_per_min = self.alarms.humidity_rate_pct_per_min();
-        v.alarms = self.alarms.list();
+        self.alarms.list_into(&mut v.alarms);
         v.pilot.raw = raw.into();
         v.pilot.shaped = shaped.into();
         v.pilot.gain_pct = self.gain.pct();
         v.pilot.gain_index = self.gain.index();
         v.pilot.arm_progress = self.arm.progress(now_us).max(self.arm_pad.progress(now_us));
-        v.pilot.input = input.to_string();
+        if v.pilot.input != input {
+            input.clone_into(&mut v.pilot.input);
+        }
         match &self.recorder {
             Some(r) => {
                 v.recording.elapsed_s = now_us.saturating_sub(r.started_us()) as f64 * 1e-6;
@@ -681,6 +1244,12 @@ impl Engine {
         if let Some(t) = tick {
             self.pipeline.view.tick = t;
         }
+        if self.pipeline.view.control_priority.is_empty()
+            && let Some(p) = try_lock(&self.shared.priorities)
+            && let Some((_, g)) = p.iter().find(|(n, _)| n == "station-control")
+        {
+            self.pipeline.view.control_priority = g.to_string();
+        }
         self.pipeline.view.seq += 1;
         if let Some(mut v) = try_lock(&self.shared.view) {
             v.clone_from(&self.pipeline.view);
@@ -701,6 +1270,14 @@ impl Engine {
     pub fn finish(&mut self, now_us: u64) {
         self.stop_recording(now_us);
     }
+}
+
+/// The file name of a path (events name the file; the folder is in the settings).
+fn file_name(path: &std::path::Path) -> String {
+    path.file_name().map_or_else(
+        || path.display().to_string(),
+        |n| n.to_string_lossy().into_owned(),
+    )
 }
 
 /// `/truth/state` from the simulator's truth, in the units of the measured channels

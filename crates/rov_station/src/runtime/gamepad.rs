@@ -9,58 +9,68 @@
 //!   the centre zone (a pad that reconnects with a stick deflected, or reports a stale
 //!   value, cannot drive the vehicle).
 //!
-//! Mapping (standard layout): left stick Y = surge, left stick X = yaw, right stick Y =
-//! vertical (push down to dive). Start held ~1 s = arm; Select (Back) = disarm (one
-//! action); North = toggle depth hold; West = toggle heading hold; right/left bumper =
-//! gain up/down; d-pad up/down = camera tilt ±10°; d-pad right/left = lights ±10 %;
-//! East = acknowledge all alarms.
+//! This thread only reports the raw axes and buttons ([`PadState`]); the control tick
+//! maps them with the pilot's [`PadMap`](crate::runtime::pad::PadMap) (axes, buttons,
+//! shift layer), so a virtual pad takes the same path.
 
 use std::sync::atomic::Ordering;
-use std::sync::mpsc::SyncSender;
 use std::time::Duration;
 
-use gilrs::{Axis as PadAxis, Button, EventType, Gilrs};
-use rov_control::{Axis, PilotInput};
+use gilrs::{Axis as GAxis, Button, EventType, Gilrs};
 
-use crate::core::StationCommand;
+use crate::runtime::pad::{PadButton, PadState};
 use crate::runtime::view::PadStatus;
-use crate::runtime::{CameraCommand, GainCommand, RuntimeCommand, Shared, lock};
+use crate::runtime::{Shared, lock};
 
 /// Sticks inside this radius count as centred for the reconnect rule.
 const CENTRE: f64 = 0.1;
 
-fn sticks(pad: &gilrs::Gamepad<'_>) -> PilotInput {
-    let v = |a: PadAxis| f64::from(pad.value(a));
-    PilotInput {
-        surge: v(PadAxis::LeftStickY),
-        yaw: v(PadAxis::LeftStickX),
-        // gilrs: stick up is +1; pushing the right stick down dives.
-        vertical: -v(PadAxis::RightStickY),
+fn state(pad: &gilrs::Gamepad<'_>) -> PadState {
+    let v = |a: GAxis| f64::from(pad.value(a));
+    let mut st = PadState {
+        axes: [
+            v(GAxis::LeftStickX),
+            v(GAxis::LeftStickY),
+            v(GAxis::RightStickX),
+            v(GAxis::RightStickY),
+            v(GAxis::LeftZ),
+            v(GAxis::RightZ),
+        ],
+        buttons: 0,
+    };
+    const NAMED: [(Button, PadButton); 16] = [
+        (Button::South, PadButton::South),
+        (Button::East, PadButton::East),
+        (Button::North, PadButton::North),
+        (Button::West, PadButton::West),
+        (Button::LeftTrigger, PadButton::LeftBumper),
+        (Button::RightTrigger, PadButton::RightBumper),
+        (Button::LeftTrigger2, PadButton::LeftTrigger),
+        (Button::RightTrigger2, PadButton::RightTrigger),
+        (Button::Select, PadButton::Select),
+        (Button::Start, PadButton::Start),
+        (Button::LeftThumb, PadButton::LeftThumb),
+        (Button::RightThumb, PadButton::RightThumb),
+        (Button::DPadUp, PadButton::DPadUp),
+        (Button::DPadDown, PadButton::DPadDown),
+        (Button::DPadLeft, PadButton::DPadLeft),
+        (Button::DPadRight, PadButton::DPadRight),
+    ];
+    for (g, b) in NAMED {
+        if pad.is_pressed(g) {
+            st.buttons |= b.bit();
+        }
     }
+    st
 }
 
-fn button_names(pad: &gilrs::Gamepad<'_>) -> Vec<String> {
-    const NAMED: [(Button, &str); 10] = [
-        (Button::Start, "start"),
-        (Button::Select, "select"),
-        (Button::North, "north"),
-        (Button::West, "west"),
-        (Button::East, "east"),
-        (Button::South, "south"),
-        (Button::LeftTrigger, "lb"),
-        (Button::RightTrigger, "rb"),
-        (Button::DPadUp, "up"),
-        (Button::DPadDown, "down"),
-    ];
-    NAMED
-        .iter()
-        .filter(|(b, _)| pad.is_pressed(*b))
-        .map(|(_, n)| (*n).to_string())
-        .collect()
+/// Sticks inside the centre zone on every axis.
+fn centred(st: &PadState) -> bool {
+    st.axes.iter().take(4).all(|x| x.abs() < CENTRE)
 }
 
 /// Runs until the runtime stops.
-pub(crate) fn run(shared: &Shared, cmds: &SyncSender<RuntimeCommand>) {
+pub(crate) fn run(shared: &Shared) {
     let mut gilrs = match Gilrs::new() {
         Ok(g) => g,
         Err(e) => {
@@ -71,51 +81,24 @@ pub(crate) fn run(shared: &Shared, cmds: &SyncSender<RuntimeCommand>) {
         }
     };
     let mut active: Option<gilrs::GamepadId> = None;
-    let mut centred = false;
-    let mut tilt = 0.0f64;
-    let mut lights = 0.0f64;
-    let send = |c: RuntimeCommand| {
-        // A full queue drops the button press (counted by the handle's counter).
-        if cmds.try_send(c).is_err() {
-            shared.commands_dropped.fetch_add(1, Ordering::Relaxed);
-        }
-    };
+    let mut is_centred = false;
     while shared.running.load(Ordering::Relaxed) {
         while let Some(ev) = gilrs.next_event() {
             match ev.event {
                 EventType::Connected if active.is_none() => {
                     active = Some(ev.id);
-                    centred = false;
+                    is_centred = false;
                 }
                 EventType::Disconnected if active == Some(ev.id) => {
                     active = None;
-                    centred = false;
+                    is_centred = false;
                 }
-                EventType::ButtonPressed(b, _) if active == Some(ev.id) && centred => match b {
-                    Button::Select => send(RuntimeCommand::Station(StationCommand::Disarm)),
-                    Button::North => send(RuntimeCommand::ToggleHold(Axis::Depth)),
-                    Button::West => send(RuntimeCommand::ToggleHold(Axis::Heading)),
-                    Button::East => send(RuntimeCommand::AckAlarm(None)),
-                    Button::RightTrigger => send(RuntimeCommand::Gain(GainCommand::Up)),
-                    Button::LeftTrigger => send(RuntimeCommand::Gain(GainCommand::Down)),
-                    Button::DPadUp | Button::DPadDown => {
-                        let d = if b == Button::DPadUp { 10.0 } else { -10.0 };
-                        tilt = (tilt + d).clamp(-90.0, 90.0);
-                        send(RuntimeCommand::Camera(CameraCommand::Tilt(tilt)));
-                    }
-                    Button::DPadRight | Button::DPadLeft => {
-                        let d = if b == Button::DPadRight { 10.0 } else { -10.0 };
-                        lights = (lights + d).clamp(0.0, 100.0);
-                        send(RuntimeCommand::Camera(CameraCommand::Lights(lights)));
-                    }
-                    _ => {}
-                },
                 _ => {}
             }
         }
         if active.is_none() {
             active = gilrs.gamepads().next().map(|(id, _)| id);
-            centred = false;
+            is_centred = false;
         }
         let now = shared.clock.now_us();
         {
@@ -126,20 +109,15 @@ pub(crate) fn run(shared: &Shared, cmds: &SyncSender<RuntimeCommand>) {
                 .filter(|p| p.is_connected())
             {
                 Some(pad) => {
-                    let raw = sticks(&pad);
-                    if !centred
-                        && raw.surge.abs() < CENTRE
-                        && raw.yaw.abs() < CENTRE
-                        && raw.vertical.abs() < CENTRE
-                    {
-                        centred = true;
+                    let raw = state(&pad);
+                    if !is_centred && centred(&raw) {
+                        is_centred = true;
                     }
                     let name = pad.name().to_string();
-                    s.live = centred;
-                    s.sticks = if centred { raw } else { PilotInput::default() };
-                    s.buttons = button_names(&pad);
-                    s.arm_held = centred && pad.is_pressed(Button::Start);
-                    s.status = if centred {
+                    s.live = is_centred;
+                    s.raw = raw;
+                    s.state = if is_centred { raw } else { PadState::default() };
+                    s.status = if is_centred {
                         PadStatus::Connected(name)
                     } else {
                         PadStatus::WaitingForCentre(name)
@@ -147,9 +125,8 @@ pub(crate) fn run(shared: &Shared, cmds: &SyncSender<RuntimeCommand>) {
                 }
                 None => {
                     s.live = false;
-                    s.sticks = PilotInput::default();
-                    s.buttons.clear();
-                    s.arm_held = false;
+                    s.state = PadState::default();
+                    s.raw = PadState::default();
                     s.status = PadStatus::NoPad;
                 }
             }

@@ -12,13 +12,14 @@ use rov_driver::{
     ByteSink, ByteSource, Link, MonoClock, PRO4_BAUD, SerialTransport, Transport, memory_pair,
 };
 use rov_vehicle::runner::TruthTap;
-use rov_vehicle::{RunnerConfig, Vehicle, VehicleConfig, VehicleRunner};
+use rov_vehicle::{RunnerConfig, VehicleRunner};
 
 use crate::runtime::engine::{Engine, Followup};
+use crate::runtime::priority::{RT_CONTROL, RT_LINK, RT_WATCHDOG};
 use crate::runtime::view::Source;
 use crate::runtime::{
     Connection, RuntimeCommand, RuntimeConfig, RuntimeError, Shared, StationHandle,
-    command_channel, lock, spawn_named,
+    command_channel, lock, spawn_named, spawn_raised,
 };
 
 /// Byte chunks queued from the rx thread to the control thread.
@@ -28,11 +29,44 @@ const TX_CAPACITY: usize = 64;
 /// The control thread wakes this early for a tick and spins the rest, µs.
 const SPIN_US: u64 = 1_000;
 
+// The large variant is the common one; boxing it would allocate for every chunk.
+#[allow(clippy::large_enum_variant)]
 pub(crate) enum Rx {
-    Bytes(Vec<u8>, u64),
+    Bytes(Chunk, u64),
     Failed(String),
     /// Serial port lost, re-connection progress, reconnected (see `reconnect`).
     Port(crate::runtime::reconnect::PortEvent),
+}
+
+/// Bytes in a fixed buffer: what moves between the I/O threads and the control thread
+/// without touching the allocator (a received chunk, or one frame to send: the longest
+/// Pro 4 frame is 7 + 255 + 1 bytes).
+#[derive(Clone, Copy)]
+pub(crate) struct Chunk {
+    len: usize,
+    buf: [u8; CHUNK],
+}
+
+/// Capacity of a [`Chunk`], bytes.
+const CHUNK: usize = 272;
+
+impl Chunk {
+    /// Up to [`CHUNK`] bytes of `b` (the rest is the caller's).
+    fn from_slice(b: &[u8]) -> Self {
+        let mut c = Self {
+            len: b.len().min(CHUNK),
+            buf: [0; CHUNK],
+        };
+        if let (Some(dst), Some(src)) = (c.buf.get_mut(..c.len), b.get(..c.len)) {
+            dst.copy_from_slice(src);
+        }
+        c
+    }
+
+    /// The bytes.
+    pub(crate) fn bytes(&self) -> &[u8] {
+        self.buf.get(..self.len).unwrap_or_default()
+    }
 }
 
 pub(crate) fn start(cfg: RuntimeConfig, models: ModelSet) -> Result<StationHandle, RuntimeError> {
@@ -41,7 +75,8 @@ pub(crate) fn start(cfg: RuntimeConfig, models: ModelSet) -> Result<StationHandl
     let shared = Arc::new(Shared::new(period_us, clock));
     let (cmd_tx, cmd_rx) = command_channel();
     let mut link_cfg = cfg.link;
-    link_cfg.record_frames = true;
+    // Raw frames are recorded only while a recording runs (the engine switches them).
+    link_cfg.record_frames = false;
     let link = Link::new(link_cfg)?;
     let node = link.config().node;
 
@@ -51,14 +86,32 @@ pub(crate) fn start(cfg: RuntimeConfig, models: ModelSet) -> Result<StationHandl
         match &cfg.connection {
             Connection::Sim => {
                 let (station_end, vehicle_end) = memory_pair();
-                let vehicle = Vehicle::with_model3(VehicleConfig::default(), cfg.sim_seed)?;
+                let vehicle = crate::runtime::sim::sim_vehicle(&cfg)?;
                 let tap = TruthTap::default();
-                let runner = rov_vehicle::runner::spawn_with_truth(
-                    vehicle,
-                    Box::new(vehicle_end),
-                    RunnerConfig::default(),
-                    Arc::clone(&tap),
-                );
+                // The simulated vehicle stands for hardware at the other end of the
+                // tether: its thread gets the link threads' priority (a thread inherits
+                // its creator's scheduling, so it is created from a raised helper), or a
+                // busy GUI would delay its replies and fake a poor link.
+                let t = Arc::clone(&tap);
+                let (back, runner_rx) = std::sync::mpsc::channel();
+                let helper = spawn_named("station-vehicle-spawn", {
+                    let shared = Arc::clone(&shared);
+                    move || {
+                        let g = crate::runtime::priority::raise_current(RT_LINK);
+                        lock(&shared.priorities).push(("station-vehicle (sim)".into(), g));
+                        let runner = rov_vehicle::runner::spawn_with_truth(
+                            vehicle,
+                            Box::new(vehicle_end),
+                            RunnerConfig::default(),
+                            t,
+                        );
+                        let _ = back.send(runner);
+                    }
+                })?;
+                let _ = helper.join();
+                let runner = runner_rx.recv().map_err(|_| {
+                    RuntimeError::Thread("the simulated vehicle did not start".into())
+                })?;
                 truth_tap = Some(tap);
                 (Box::new(station_end), Source::Sim, Some(runner))
             }
@@ -74,7 +127,7 @@ pub(crate) fn start(cfg: RuntimeConfig, models: ModelSet) -> Result<StationHandl
     }
 
     let (rx_tx, rx_rx) = sync_channel::<Rx>(RX_CAPACITY);
-    let (tx_tx, tx_rx) = sync_channel::<Vec<u8>>(TX_CAPACITY);
+    let (tx_tx, tx_rx) = sync_channel::<Chunk>(TX_CAPACITY);
     // A serial port that vanishes is looked for again (see `reconnect`).
     let (source_half, sink_half) = crate::runtime::reconnect::wrap(
         &cfg,
@@ -87,40 +140,59 @@ pub(crate) fn start(cfg: RuntimeConfig, models: ModelSet) -> Result<StationHandl
     let mut threads = Vec::new();
     {
         let shared = Arc::clone(&shared);
-        threads.push(spawn_named("station-rx", move || {
-            rx_loop(source_half, &rx_tx, &shared);
-        })?);
+        threads.push(spawn_raised(
+            "station-rx",
+            RT_LINK,
+            &shared.clone(),
+            move || {
+                rx_loop(source_half, &rx_tx, &shared);
+            },
+        )?);
     }
     {
         let shared = Arc::clone(&shared);
-        threads.push(spawn_named("station-tx", move || {
-            tx_loop(sink_half, &tx_rx, &shared);
-        })?);
+        threads.push(spawn_raised(
+            "station-tx",
+            RT_LINK,
+            &shared.clone(),
+            move || {
+                tx_loop(sink_half, &tx_rx, &shared);
+            },
+        )?);
     }
     {
         let shared = Arc::clone(&shared);
         let tx = tx_tx.clone();
-        threads.push(spawn_named("station-watchdog", move || {
-            watchdog_loop(&shared, &tx, node, period_us);
-        })?);
+        threads.push(spawn_raised(
+            "station-watchdog",
+            RT_WATCHDOG,
+            &shared.clone(),
+            move || {
+                watchdog_loop(&shared, &tx, node, period_us);
+            },
+        )?);
     }
     #[cfg(feature = "gamepad")]
     if cfg.gamepad {
         let shared = Arc::clone(&shared);
-        let cmds = cmd_tx.clone();
         threads.push(spawn_named("station-gamepad", move || {
-            crate::runtime::gamepad::run(&shared, &cmds);
+            crate::runtime::gamepad::run(&shared);
         })?);
     }
     {
         let shared = Arc::clone(&shared);
-        threads.push(spawn_named("station-control", move || {
-            control_loop(engine, link, &rx_rx, &tx_tx, &cmd_rx, &shared, period_us);
-            shared.running.store(false, Ordering::Relaxed);
-            if let Some(v) = vehicle {
-                let _ = v.stop();
-            }
-        })?);
+        threads.push(spawn_raised(
+            "station-control",
+            RT_CONTROL,
+            &shared.clone(),
+            move || {
+                control_loop(engine, link, &rx_rx, &tx_tx, &cmd_rx, &shared, period_us);
+                shared.running.store(false, Ordering::Relaxed);
+                if let Some(v) = vehicle {
+                    let _ = v.stop();
+                }
+            },
+        )?);
     }
     Ok(StationHandle::new(shared, cmd_tx, threads))
 }
@@ -132,11 +204,12 @@ fn rx_loop(mut source: Box<dyn ByteSource>, out: &SyncSender<Rx>, shared: &Share
             Ok(0) => {}
             Ok(n) => {
                 let t = shared.clock.now_us();
-                let bytes = buf.get(..n).unwrap_or_default().to_vec();
                 // A full queue means the control thread is stalled; wait for it rather
                 // than lose bytes (the watchdog covers the stall).
-                if out.send(Rx::Bytes(bytes, t)).is_err() {
-                    return;
+                for part in buf.get(..n).unwrap_or_default().chunks(CHUNK) {
+                    if out.send(Rx::Bytes(Chunk::from_slice(part), t)).is_err() {
+                        return;
+                    }
                 }
             }
             Err(e) => {
@@ -147,11 +220,11 @@ fn rx_loop(mut source: Box<dyn ByteSource>, out: &SyncSender<Rx>, shared: &Share
     }
 }
 
-fn tx_loop(mut sink: Box<dyn ByteSink>, input: &Receiver<Vec<u8>>, shared: &Shared) {
+fn tx_loop(mut sink: Box<dyn ByteSink>, input: &Receiver<Chunk>, shared: &Shared) {
     while shared.running.load(Ordering::Relaxed) {
         match input.recv_timeout(Duration::from_millis(50)) {
             Ok(frame) => {
-                if sink.send(&frame).is_err() {
+                if sink.send(frame.bytes()).is_err() {
                     return;
                 }
             }
@@ -192,16 +265,15 @@ pub(crate) fn watchdog_block(kept: u64) -> ControlBlock {
 }
 
 /// The encoded watchdog frame for the kept camera state.
-pub(crate) fn watchdog_frame(kept: u64, node: NodeId) -> Vec<u8> {
-    let mut frame = vec![0u8; 32];
+pub(crate) fn watchdog_frame(kept: u64, node: NodeId) -> Chunk {
+    let mut frame = [0u8; 32];
     let n = watchdog_block(kept)
         .encode_request(node, flags::NONE, &mut frame)
         .unwrap_or(0);
-    frame.truncate(n);
-    frame
+    Chunk::from_slice(frame.get(..n).unwrap_or_default())
 }
 
-fn watchdog_loop(shared: &Shared, tx: &SyncSender<Vec<u8>>, node: NodeId, period_us: u64) {
+fn watchdog_loop(shared: &Shared, tx: &SyncSender<Chunk>, node: NodeId, period_us: u64) {
     let poll = Duration::from_micros((period_us / 4).max(500));
     let mut tripped = false;
     let mut last_sent = 0u64;
@@ -244,7 +316,7 @@ fn control_loop(
     mut engine: Engine,
     mut link: Link,
     rx: &Receiver<Rx>,
-    tx: &SyncSender<Vec<u8>>,
+    tx: &SyncSender<Chunk>,
     cmds: &Receiver<RuntimeCommand>,
     shared: &Shared,
     period_us: u64,
@@ -253,117 +325,142 @@ fn control_loop(
     let mut next_tick = clock.now_us();
     let mut transport_error: Option<String> = None;
     loop {
-        // Wait for bytes or the next deadline. The control tick's wake-up is asked for
-        // SPIN_US early and the rest is spun, so scheduler wake-up latency does not make
-        // the tick late.
-        let now = clock.now_us();
-        let link_due = link.next_timeout().unwrap_or(u64::MAX);
-        let due = link_due.min(next_tick.saturating_sub(SPIN_US));
-        if due > now {
-            match rx.recv_timeout(Duration::from_micros(due - now)) {
-                Ok(Rx::Bytes(b, t)) => link.handle_input(&b, t),
-                Ok(Rx::Failed(e)) => transport_error = Some(e),
-                Ok(Rx::Port(ev)) => engine.on_port_event(ev, &mut link, clock.now_us()),
-                Err(RecvTimeoutError::Timeout) => {}
-                Err(RecvTimeoutError::Disconnected) => {
-                    transport_error.get_or_insert_with(|| "transport closed".into());
-                }
-            }
-        }
-        loop {
-            match rx.try_recv() {
-                Ok(Rx::Bytes(b, t)) => link.handle_input(&b, t),
-                Ok(Rx::Failed(e)) => transport_error = Some(e),
-                Ok(Rx::Port(ev)) => engine.on_port_event(ev, &mut link, clock.now_us()),
-                Err(TryRecvError::Empty | TryRecvError::Disconnected) => break,
-            }
-        }
-        if let Some(e) = transport_error.take() {
+        let stop = measured(shared, || {
+            // Wait for bytes or the next deadline. The control tick's wake-up is asked for
+            // SPIN_US early and the rest is spun, so scheduler wake-up latency does not make
+            // the tick late.
             let now = clock.now_us();
-            engine.pipeline.push_event(format!(
-                "{:7.1} s  ALARM: transport failed: {e}",
-                now as f64 * 1e-6
-            ));
-        }
-        let now = clock.now_us();
-        link.handle_timeout(now);
-        pump(&mut engine, &mut link, tx, now);
-
-        // Commands.
-        let mut stop = false;
-        loop {
-            match cmds.try_recv() {
-                Ok(c) => match engine.apply(&mut link, c, clock.now_us()) {
-                    Followup::None => {}
-                    Followup::Shutdown => stop = true,
-                    Followup::Stall(d) => std::thread::sleep(d),
-                },
-                Err(TryRecvError::Empty) => break,
-                Err(TryRecvError::Disconnected) => {
-                    stop = true;
-                    break;
+            let link_due = link.next_timeout().unwrap_or(u64::MAX);
+            let due = link_due.min(next_tick.saturating_sub(SPIN_US));
+            if due > now {
+                match rx.recv_timeout(Duration::from_micros(due - now)) {
+                    Ok(Rx::Bytes(b, t)) => link.handle_input(b.bytes(), t),
+                    Ok(Rx::Failed(e)) => transport_error = Some(e),
+                    Ok(Rx::Port(ev)) => engine.on_port_event(ev, &mut link, clock.now_us()),
+                    Err(RecvTimeoutError::Timeout) => {}
+                    Err(RecvTimeoutError::Disconnected) => {
+                        transport_error.get_or_insert_with(|| "transport closed".into());
+                    }
                 }
             }
-        }
-        if stop || !shared.running.load(Ordering::Relaxed) {
-            break;
-        }
-
-        // The control tick, on its deadline.
-        let mut now = clock.now_us();
-        if now < next_tick && next_tick - now <= SPIN_US {
-            while now < next_tick {
-                std::hint::spin_loop();
-                now = clock.now_us();
+            loop {
+                match rx.try_recv() {
+                    Ok(Rx::Bytes(b, t)) => link.handle_input(b.bytes(), t),
+                    Ok(Rx::Failed(e)) => transport_error = Some(e),
+                    Ok(Rx::Port(ev)) => engine.on_port_event(ev, &mut link, clock.now_us()),
+                    Err(TryRecvError::Empty | TryRecvError::Disconnected) => break,
+                }
             }
-        }
-        if now >= next_tick {
-            engine.tick(&mut link, now);
-            engine.publish_port(now);
+            if let Some(e) = transport_error.take() {
+                let now = clock.now_us();
+                engine.pipeline.push_event(format!(
+                    "{:7.1} s  ALARM: transport failed: {e}",
+                    now as f64 * 1e-6
+                ));
+            }
+            let now = clock.now_us();
+            link.handle_timeout(now);
             pump(&mut engine, &mut link, tx, now);
-            engine.record_tapped_truth(now);
-            let stats = {
-                let mut t = lock(&shared.ticks);
-                t.record(next_tick, now);
-                next_tick += period_us;
-                if now >= next_tick {
-                    // More than a period late: skip the lost deadlines (counted) and
-                    // keep the grid t0 + k·P.
-                    let behind = (now - next_tick) / period_us + 1;
-                    t.add_missed(behind);
-                    next_tick += behind * period_us;
+
+            // Commands.
+            let mut stop = false;
+            loop {
+                match cmds.try_recv() {
+                    Ok(c) => match engine.apply(&mut link, c, clock.now_us()) {
+                        Followup::None => {}
+                        Followup::Shutdown => stop = true,
+                        Followup::Stall(d) => std::thread::sleep(d),
+                    },
+                    Err(TryRecvError::Empty) => break,
+                    Err(TryRecvError::Disconnected) => {
+                        stop = true;
+                        break;
+                    }
                 }
-                t.set_watchdog(
-                    shared.watchdog_trips.load(Ordering::Relaxed),
-                    shared.watchdog_frames.load(Ordering::Relaxed),
-                    shared.watchdog_max_gap_us.load(Ordering::Relaxed),
-                );
-                t.stats()
-            };
-            if let Some((_, sent)) = link.last_control_sent() {
-                shared
-                    .watchdog_kept
-                    .store(pack_kept(&sent), Ordering::Relaxed);
             }
-            shared.last_tick_us.store(clock.now_us(), Ordering::Relaxed);
-            engine.publish(Some(stats));
+            if stop || !shared.running.load(Ordering::Relaxed) {
+                return true;
+            }
+
+            // The control tick, on its deadline.
+            let mut now = clock.now_us();
+            if now < next_tick && next_tick - now <= SPIN_US {
+                while now < next_tick {
+                    std::hint::spin_loop();
+                    now = clock.now_us();
+                }
+            }
+            if now >= next_tick {
+                engine.tick(&mut link, now);
+                engine.publish_port(now);
+                pump(&mut engine, &mut link, tx, now);
+                engine.record_tapped_truth(now);
+                let stats = {
+                    let mut t = lock(&shared.ticks);
+                    t.record(next_tick, now);
+                    next_tick += period_us;
+                    if now >= next_tick {
+                        // More than a period late: skip the lost deadlines (counted as
+                        // missed: they never start) and keep the grid t0 + k·P.
+                        let behind = (now - next_tick) / period_us + 1;
+                        t.add_missed(behind);
+                        next_tick += behind * period_us;
+                    }
+                    t.set_watchdog(
+                        shared.watchdog_trips.load(Ordering::Relaxed),
+                        shared.watchdog_frames.load(Ordering::Relaxed),
+                        shared.watchdog_max_gap_us.load(Ordering::Relaxed),
+                    );
+                    t.stats()
+                };
+                if let Some((_, sent)) = link.last_control_sent() {
+                    shared
+                        .watchdog_kept
+                        .store(pack_kept(&sent), Ordering::Relaxed);
+                }
+                shared.last_tick_us.store(clock.now_us(), Ordering::Relaxed);
+                engine.publish(Some(stats));
+            }
+            false
+        });
+        if stop {
+            break;
         }
     }
     // Neutral on the way out, then finish the recording.
     link.disarm();
     let now = clock.now_us();
     if let Some(f) = link.poll_transmit(now) {
-        let _ = tx.try_send(f.to_vec());
+        let _ = tx.try_send(Chunk::from_slice(f));
     }
     engine.finish(now);
     engine.publish(None);
 }
 
+/// Runs one wake-up of the control thread. In this crate's tests it also counts the
+/// heap allocations the wake-up made (allocation-counter, per thread), for the
+/// steady-state test: control and link work stay off the allocator.
+#[cfg(test)]
+fn measured(shared: &Shared, f: impl FnOnce() -> bool) -> bool {
+    let mut stop = false;
+    let info = allocation_counter::measure(|| stop = f());
+    shared
+        .test_allocations
+        .fetch_add(info.count_total, Ordering::Relaxed);
+    shared.test_wakeups.fetch_add(1, Ordering::Relaxed);
+    stop
+}
+
+#[cfg(not(test))]
+fn measured(_shared: &Shared, f: impl FnOnce() -> bool) -> bool {
+    f()
+}
+
 /// Hands due frames to the tx thread and feeds the link's events to the engine.
-fn pump(engine: &mut Engine, link: &mut Link, tx: &SyncSender<Vec<u8>>, now: u64) {
+fn pump(engine: &mut Engine, link: &mut Link, tx: &SyncSender<Chunk>, now: u64) {
     while let Some(frame) = link.poll_transmit(now) {
         // The tx queue holds 64 frames; a full queue means the port is stuck.
-        let _ = tx.try_send(frame.to_vec());
+        let _ = tx.try_send(Chunk::from_slice(frame));
     }
     while let Some(ev) = link.poll_event() {
         engine.on_event(link, &ev, now);

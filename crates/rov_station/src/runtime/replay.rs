@@ -21,7 +21,7 @@ use rov_session::{Decoded, MessageRef, Playback, Session};
 
 use crate::runtime::history::{History, HistorySample};
 use crate::runtime::predict::{Anchor, Predictor};
-use crate::runtime::view::{Pipeline, ReplayView, Source};
+use crate::runtime::view::{IndexedEvent, Pipeline, ReplayView, Source};
 use crate::runtime::{
     ReplayCommand, RuntimeCommand, RuntimeError, Shared, StationHandle, command_channel, lock,
     spawn_named, try_lock,
@@ -44,6 +44,40 @@ pub(crate) struct ReplayEngine {
     pending: Vec<HistorySample>,
     replace: Option<History>,
     warnings: Vec<String>,
+    /// Every event of the session.
+    index: Vec<IndexedEvent>,
+    /// One control tick of the recording, s.
+    tick_s: f64,
+}
+
+/// The control tick of a recording: the mean interval of its thrust commands (one per
+/// tick), 20 ms when it has too few.
+fn tick_of(session: &Session) -> f64 {
+    let times: Vec<u64> = session
+        .topic_messages(rov_session::record::TOPIC_THRUST)
+        .map(|m| m.t_ns)
+        .collect();
+    match (times.first(), times.last()) {
+        (Some(a), Some(b)) if times.len() > 10 && b > a => {
+            (b - a) as f64 * 1e-9 / (times.len() - 1) as f64
+        }
+        _ => 0.02,
+    }
+}
+
+/// Every event of a session, in time order (the replay's index).
+fn index_of(session: &Session, start_ns: u64) -> Vec<IndexedEvent> {
+    session
+        .records::<rov_session::EventRecord>()
+        .unwrap_or_default()
+        .into_iter()
+        .map(|(t, e)| IndexedEvent {
+            t_s: t.saturating_sub(start_ns) as f64 * 1e-9,
+            kind: e.kind,
+            severity: e.severity,
+            text: e.text,
+        })
+        .collect()
 }
 
 impl ReplayEngine {
@@ -51,6 +85,9 @@ impl ReplayEngine {
         let session = Arc::new(rov_session::open(path)?);
         let start_ns = session.start_ns().unwrap_or(0);
         let mut warnings = session.warnings.clone();
+        // Events come when something happens: a gap in /events is not a fault (the
+        // reader's gap check is meant for the periodic topics).
+        warnings.retain(|w| !w.starts_with("/events: "));
         if let Some(d) = session.damage() {
             warnings.push(format!(
                 "the file is damaged ({d:?}); replaying what is intact"
@@ -69,6 +106,8 @@ impl ReplayEngine {
             pending: Vec::new(),
             replace: None,
             warnings,
+            index: index_of(&session, start_ns),
+            tick_s: tick_of(&session),
         };
         // One pass over the file: the full plot history and the turns at each sample.
         let mut pass = Self {
@@ -84,6 +123,8 @@ impl ReplayEngine {
             pending: Vec::new(),
             replace: None,
             warnings: Vec::new(),
+            index: Vec::new(),
+            tick_s: 0.02,
         };
         let mut full = History::default();
         let mut turns = Vec::new();
@@ -201,17 +242,14 @@ impl ReplayEngine {
                 self.player.set_speed(x);
             }
             ReplayCommand::Seek(t) => self.seek(t),
-            ReplayCommand::Step => {
-                if let Some(i) = self.player.step() {
-                    let session = Arc::clone(&self.session);
-                    if let Some(m) = session.message(i)
-                        && let Some(s) = self.apply(&m)
-                    {
-                        self.pending.push(s);
-                    }
-                }
-                let pos = self.player.position_s();
-                self.pipeline.set_time(pos);
+            ReplayCommand::Step | ReplayCommand::StepBack => {
+                // One control tick: the state at the new position is rebuilt like a
+                // seek (the last message of each topic before it).
+                self.player.pause();
+                let dir = if c == ReplayCommand::Step { 1.0 } else { -1.0 };
+                let to = (self.player.position_s() + dir * self.tick_s)
+                    .clamp(0.0, self.player.duration_s());
+                self.seek(to);
             }
         }
     }
@@ -240,6 +278,8 @@ impl ReplayEngine {
             speed: self.player.speed(),
             messages: self.player.session().len(),
             warnings: self.warnings.clone(),
+            index: self.index.clone(),
+            tick_s: self.tick_s,
         });
         if let Some(mut g) = try_lock(&shared.view) {
             g.clone_from(v);

@@ -20,6 +20,8 @@ pub struct AxisShaping {
     pub expo: f64,
     /// Reverse the axis.
     pub invert: bool,
+    /// Output at full deflection, 0.1..1 (before the thrust gain).
+    pub scale: f64,
 }
 
 impl Default for AxisShaping {
@@ -28,6 +30,7 @@ impl Default for AxisShaping {
             deadband: 0.08,
             expo: 0.3,
             invert: false,
+            scale: 1.0,
         }
     }
 }
@@ -56,7 +59,12 @@ impl AxisShaping {
             0.0
         };
         let y = (1.0 - e) * r + e * r * r * r;
-        y.clamp(0.0, 1.0).copysign(x)
+        let k = if self.scale.is_finite() {
+            self.scale.clamp(0.0, 1.0)
+        } else {
+            1.0
+        };
+        (y.clamp(0.0, 1.0) * k).copysign(x)
     }
 }
 
@@ -72,6 +80,40 @@ pub struct StickShaping {
 }
 
 impl StickShaping {
+    /// Reads `[gamepad.surge]`, `[gamepad.yaw]`, `[gamepad.vertical]` (deadband 0..0.5,
+    /// expo 0..1, invert, scale 0.1..1; every key optional).
+    ///
+    /// # Errors
+    /// [`rov_types::params::ConfigError`] naming the file, key, value and range.
+    pub fn from_param_file(
+        f: &rov_types::params::ParamFile,
+    ) -> Result<Self, rov_types::params::ConfigError> {
+        let d = Self::default();
+        let axis = |name: &str, d: AxisShaping| -> Result<AxisShaping, _> {
+            let k = |x: &str| format!("gamepad.{name}.{x}");
+            Ok(AxisShaping {
+                deadband: f.f64_or(&k("deadband"), 0.0..=0.5, d.deadband)?,
+                expo: f.f64_or(&k("expo"), 0.0..=1.0, d.expo)?,
+                invert: f.bool_or(&k("invert"), d.invert)?,
+                scale: f.f64_or(&k("scale"), 0.1..=1.0, d.scale)?,
+            })
+        };
+        Ok(Self {
+            surge: axis("surge", d.surge)?,
+            yaw: axis("yaw", d.yaw)?,
+            vertical: axis("vertical", d.vertical)?,
+        })
+    }
+
+    /// One axis's table as TOML lines.
+    #[must_use]
+    pub fn axis_toml(a: &AxisShaping) -> String {
+        format!(
+            "deadband = {:?}\nexpo = {:?}\ninvert = {}\nscale = {:?}\n",
+            a.deadband, a.expo, a.invert, a.scale
+        )
+    }
+
     /// Shaped sticks (−1..1 each) from raw sticks.
     #[must_use]
     pub fn apply(&self, raw: &PilotInput) -> PilotInput {
@@ -165,6 +207,7 @@ pub struct ArmHold {
     since_us: Option<u64>,
     last_seen_us: u64,
     fired: bool,
+    released_early: bool,
 }
 
 impl ArmHold {
@@ -177,9 +220,18 @@ impl ArmHold {
             }
             self.last_seen_us = now_us;
         } else {
+            if self.since_us.is_some() && !self.fired {
+                self.released_early = true;
+            }
             self.since_us = None;
             self.fired = false;
         }
+    }
+
+    /// Whether the button was released before the hold completed since the last call
+    /// (the pilot pressed briefly: tell them to hold it).
+    pub fn take_released_early(&mut self) -> bool {
+        std::mem::take(&mut self.released_early)
     }
 
     /// Advances to `now_us`; returns true once per hold when the hold completes.
@@ -225,6 +277,7 @@ mod tests {
             deadband: 0.1,
             expo: 0.0,
             invert: false,
+            scale: 1.0,
         };
         assert_eq!(s.apply(0.05), 0.0);
         assert_eq!(s.apply(0.1), 0.0);
@@ -242,9 +295,12 @@ mod tests {
             deadband: 0.0,
             expo: 1.0,
             invert: true,
+            scale: 1.0,
         };
         assert!((s.apply(0.5) + 0.125).abs() < 1e-12);
         assert_eq!(s.apply(-1.0), 1.0);
+        let half = AxisShaping { scale: 0.5, ..s };
+        assert_eq!(half.apply(-1.0), 0.5);
     }
 
     #[test]

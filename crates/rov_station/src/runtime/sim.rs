@@ -56,6 +56,18 @@ impl SimApp for App {
     }
 }
 
+/// The simulated Pro 4 of a configuration (model 3, its seed and link faults), for the
+/// live runtime and the virtual station alike.
+pub(crate) fn sim_vehicle(cfg: &RuntimeConfig) -> Result<Vehicle, rov_vehicle::VehicleError> {
+    Vehicle::with_model3(
+        VehicleConfig {
+            faults: cfg.sim_faults.clone(),
+            ..VehicleConfig::default()
+        },
+        cfg.sim_seed,
+    )
+}
+
 /// The live engine on virtual time; see the module docs.
 pub struct VirtualStation {
     sim: SimLink,
@@ -95,9 +107,10 @@ impl VirtualStation {
         let shared = Arc::new(Shared::new(period_us, MonoClock::new()));
         let (tx, rx) = command_channel();
         let mut link_cfg = cfg.link;
-        link_cfg.record_frames = true;
+        // Raw frames are recorded only while a recording runs (the engine switches them).
+        link_cfg.record_frames = false;
         let link = Link::new(link_cfg)?;
-        let vehicle = Vehicle::with_model3(VehicleConfig::default(), cfg.sim_seed)?;
+        let vehicle = sim_vehicle(&cfg)?;
         let engine = Engine::new(cfg, models, Arc::clone(&shared), Source::Sim)?;
         let app = App {
             engine,

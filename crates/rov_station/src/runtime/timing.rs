@@ -8,6 +8,9 @@ use serde::Serialize;
 /// Tick timestamps kept for inspection (160 s at 50 Hz).
 pub const TICK_LOG_CAPACITY: usize = 8192;
 
+/// A tick that starts this late (or later) counts as missed, µs.
+pub const MISSED_LATE_US: u64 = 20_000;
+
 /// Histogram bin of the lateness, µs.
 const BIN_US: u64 = 100;
 /// Histogram bins (0..50 ms; later ticks go to the last bin).
@@ -20,7 +23,8 @@ pub struct TickStats {
     pub period_us: u64,
     /// Ticks run.
     pub ticks: u64,
-    /// Deadlines skipped because the loop ran more than one period late.
+    /// Missed deadlines: ticks that started [`MISSED_LATE_US`] or more late, and
+    /// deadlines skipped because the loop ran more than one period late.
     pub missed: u64,
     /// Ticks that ran more than one period late.
     pub late_ticks: u64,
@@ -85,6 +89,9 @@ impl TickTimer {
         s.max_late_us = s.max_late_us.max(late);
         if late > s.period_us {
             s.late_ticks += 1;
+        }
+        if late >= MISSED_LATE_US {
+            s.missed += 1;
         }
         let bin = usize::try_from(late / BIN_US)
             .unwrap_or(BINS - 1)
@@ -158,6 +165,7 @@ mod tests {
         assert_eq!(s.ticks, 100);
         assert_eq!(s.max_late_us, 30_000);
         assert_eq!(s.late_ticks, 1);
+        assert_eq!(s.missed, 1, "30 ms late is missed");
         assert_eq!(s.p99_late_us, 200);
         assert_eq!(s.max_period_us, 20_000 + 30_000 - 150);
         assert_eq!(t.log().len(), 100);

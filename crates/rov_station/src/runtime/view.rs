@@ -23,7 +23,7 @@ use crate::runtime::history::HistorySample;
 use crate::runtime::timing::TickStats;
 
 /// Where the data comes from.
-#[derive(Debug, Clone, PartialEq, Eq, Default, Serialize)]
+#[derive(Debug, PartialEq, Eq, Default, Serialize)]
 pub enum Source {
     /// Not connected.
     #[default]
@@ -57,7 +57,7 @@ pub enum Quality {
 }
 
 /// Link quality as the pilot sees it.
-#[derive(Debug, Clone, PartialEq, Default, Serialize)]
+#[derive(Debug, PartialEq, Default, Serialize)]
 pub struct LinkView {
     /// "connected", "degraded" or "lost".
     pub health: String,
@@ -67,10 +67,12 @@ pub struct LinkView {
     pub rtt_p99_ms: Option<f64>,
     /// Exchanges per second.
     pub exchange_hz: Option<f64>,
-    /// Failed exchanges, % of exchanges (over the last interval).
+    /// Failed exchanges, % of exchanges over the last [`ERROR_WINDOW_S`].
     pub error_pct: Option<f64>,
     /// Age of the last good navigation frame, s.
     pub last_good_age_s: Option<f64>,
+    /// Failed exchanges in the last [`ERROR_WINDOW_S`].
+    pub errors_in_window: u64,
     /// Exchanges so far.
     pub exchanges: u64,
     /// Failed exchanges so far.
@@ -100,6 +102,8 @@ pub struct HealthView {
     pub power_w: Option<f64>,
     /// Power level reported in the navigation reply, %.
     pub power_pct: Option<f64>,
+    /// Internal temperature, °C (when the vehicle reports it).
+    pub internal_temp_c: Option<f64>,
 }
 
 /// Who controls an axis.
@@ -126,7 +130,7 @@ pub struct AxisView {
 }
 
 /// Gamepad state.
-#[derive(Debug, Clone, PartialEq, Eq, Default, Serialize)]
+#[derive(Debug, PartialEq, Eq, Default, Serialize)]
 pub enum PadStatus {
     /// Gamepad support not built or not started.
     #[default]
@@ -139,6 +143,8 @@ pub enum PadStatus {
     Connected(String),
     /// A pad reconnected: its sticks must pass through centre before they count.
     WaitingForCentre(String),
+    /// The gamepad thread stopped reporting (sticks count as centred).
+    Stale,
 }
 
 /// Pilot input.
@@ -163,7 +169,7 @@ impl From<PilotInput> for SticksView {
 }
 
 /// Pilot-side state.
-#[derive(Debug, Clone, PartialEq, Default, Serialize)]
+#[derive(Debug, PartialEq, Serialize)]
 pub struct PilotView {
     /// Raw sticks (before shaping).
     pub raw: SticksView,
@@ -181,6 +187,30 @@ pub struct PilotView {
     pub input: String,
     /// Buttons held, by name.
     pub buttons: Vec<String>,
+    /// The pad's raw axes and buttons (setup page), before the centre rule.
+    pub pad_raw: crate::runtime::pad::PadState,
+    /// The gamepad map in force.
+    pub pad_map: crate::runtime::pad::PadMap,
+    /// The shift button is held.
+    pub shift: bool,
+}
+
+impl Default for PilotView {
+    fn default() -> Self {
+        Self {
+            raw: SticksView::default(),
+            shaped: SticksView::default(),
+            gain_pct: 0.0,
+            gain_index: 0,
+            arm_progress: 0.0,
+            pad: PadStatus::default(),
+            input: String::new(),
+            buttons: Vec::new(),
+            pad_raw: crate::runtime::pad::PadState::default(),
+            pad_map: crate::runtime::pad::PadMap::default(),
+            shift: false,
+        }
+    }
 }
 
 /// Camera and lights.
@@ -195,7 +225,7 @@ pub struct CameraView {
 }
 
 /// Recording state.
-#[derive(Debug, Clone, PartialEq, Default, Serialize)]
+#[derive(Debug, PartialEq, Default, Serialize)]
 pub struct RecordingView {
     /// The file being written, when recording.
     pub path: Option<PathBuf>,
@@ -212,7 +242,7 @@ pub struct RecordingView {
 }
 
 /// Replay state.
-#[derive(Debug, Clone, PartialEq, Default, Serialize)]
+#[derive(Debug, PartialEq, Default, Serialize)]
 pub struct ReplayView {
     /// Position, s since the session start.
     pub position_s: f64,
@@ -226,10 +256,28 @@ pub struct ReplayView {
     pub messages: usize,
     /// Warnings from opening the file.
     pub warnings: Vec<String>,
+    /// Every event of the session (arming, holds, alarms, notes, markers), in time
+    /// order: the replay's index.
+    pub index: Vec<IndexedEvent>,
+    /// One control tick of the recording, s (what Step moves).
+    pub tick_s: f64,
+}
+
+/// An event of a recorded session.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct IndexedEvent {
+    /// Time, s since the session start.
+    pub t_s: f64,
+    /// Kind (`armed`, `autopilot`, `note`, `marker`, an alarm key, ...).
+    pub kind: String,
+    /// Severity.
+    pub severity: Severity,
+    /// Text.
+    pub text: String,
 }
 
 /// Everything the GUI draws, latest value; see the module docs.
-#[derive(Debug, Clone, Default, Serialize)]
+#[derive(Debug, Default, Serialize)]
 pub struct StationView {
     /// Data source.
     pub source: Source,
@@ -272,7 +320,41 @@ pub struct StationView {
     pub events: Vec<String>,
     /// The last command the station refused, with the reason.
     pub last_refusal: Option<String>,
+    /// Which instruments have no current data (see [`StaleView`]).
+    pub stale: StaleView,
+    /// Vertical speed, m/s, positive down (the observer's heave velocity).
+    pub heave_mps: Option<f64>,
+    /// A short hint for the pilot (e.g. after a too-short press of the arm button).
+    pub hint: Option<String>,
+    /// The priority the control thread got ("real-time FIFO 60", "nice -10", ...).
+    pub control_priority: String,
+    /// The alarm limits in force.
+    pub alarm_limits: crate::runtime::alarms::AlarmConfig,
+    /// The dive log (timer, deepest point, notes, markers).
+    pub dive: crate::runtime::dive::DiveView,
+    /// The pre-dive checklist.
+    pub checklist: crate::runtime::dive::ChecklistView,
 }
+
+/// Which instruments have no current data. An instrument is stale when the frame it
+/// draws from is older than [`STALE_AFTER_S`] (or never came), or the controller flags
+/// its sensor as lost; the GUI then greys it and writes NO DATA over it instead of
+/// drawing the last value (or zero) as if it were valid.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
+pub struct StaleView {
+    /// Depth tape.
+    pub depth: bool,
+    /// Heading tape.
+    pub heading: bool,
+    /// Horizon and pitch glyph.
+    pub attitude: bool,
+}
+
+/// Instruments older than this are drawn as stale, s (ten navigation replies at 50 Hz).
+pub const STALE_AFTER_S: f64 = 0.2;
+
+/// The window over which the link's error rate is judged, s.
+pub const ERROR_WINDOW_S: f64 = 5.0;
 
 /// Events kept in [`StationView::events`].
 pub const EVENT_LINES: usize = 12;
@@ -284,6 +366,8 @@ pub struct Pipeline {
     pub view: StationView,
     last_nav_s: Option<f64>,
     last_link: Option<(f64, LinkRecord)>,
+    /// (t, exchanges, errors) of the link records of the last [`ERROR_WINDOW_S`].
+    link_window: std::collections::VecDeque<(f64, u64, u64)>,
     last_heading: Option<f64>,
     heading_sum_deg: f64,
     turns_zero_deg: f64,
@@ -309,8 +393,23 @@ impl Pipeline {
     /// Time advances to `t_s` (updates ages and the link colour).
     pub fn set_time(&mut self, t_s: f64) {
         self.view.snapshot.time_s = t_s;
-        self.view.link.last_good_age_s = self.last_nav_s.map(|t| (t_s - t).max(0.0));
+        let age = self.last_nav_s.map(|t| (t_s - t).max(0.0));
+        self.view.link.last_good_age_s = age;
         self.view.link.quality = quality(&self.view.link);
+        let old = age.is_none_or(|a| a > STALE_AFTER_S);
+        let s = &self.view.snapshot;
+        self.view.stale = StaleView {
+            depth: old || s.depth_m.is_none(),
+            heading: old || s.heading_deg.is_none(),
+            attitude: old || s.pitch_deg.is_none() || s.roll_deg.is_none(),
+        };
+    }
+
+    /// Marks instruments stale whose sensor the controller reports lost (after
+    /// [`Pipeline::set_time`]).
+    pub fn sensor_lost(&mut self, depth: bool, heading: bool) {
+        self.view.stale.depth |= depth;
+        self.view.stale.heading |= heading;
     }
 
     /// Observer heave velocity and yaw rate (for the predictor's anchor).
@@ -441,6 +540,7 @@ impl Pipeline {
         self.view.snapshot.heading_estimate_deg = finite(r.heading_deg);
         self.observer_w = finite(r.heave_mps);
         self.observer_r = finite(r.yaw_rate_dps).map(f64::to_radians);
+        self.view.heave_mps = self.observer_w;
     }
 
     /// Link statistics at `t_s`.
@@ -453,17 +553,40 @@ impl Pipeline {
         if let Some((t0, r0)) = &self.last_link {
             let dt = t_s - t0;
             if dt > 0.05 && r.exchanges >= r0.exchanges {
-                let dx = (r.exchanges - r0.exchanges) as f64;
-                l.exchange_hz = Some(dx / dt);
-                let de = r.total_errors.saturating_sub(r0.total_errors) as f64;
-                l.error_pct = Some(if dx > 0.0 {
-                    100.0 * de / dx
-                } else if de > 0.0 {
-                    100.0
-                } else {
-                    0.0
-                });
+                l.exchange_hz = Some((r.exchanges - r0.exchanges) as f64 / dt);
             }
+        }
+        // The error rate over the last ERROR_WINDOW_S: one failed exchange among the ~27
+        // of a 0.5 s interval is not a degraded link.
+        if self
+            .link_window
+            .back()
+            .is_some_and(|&(t, x, e)| t > t_s || x > r.exchanges || e > r.total_errors)
+        {
+            self.link_window.clear(); // a new link (or a replay seek)
+        }
+        self.link_window
+            .push_back((t_s, r.exchanges, r.total_errors));
+        while self
+            .link_window
+            .front()
+            .is_some_and(|&(t, _, _)| t_s - t > ERROR_WINDOW_S + 1e-9)
+        {
+            self.link_window.pop_front();
+        }
+        if let (Some(&(t0, x0, e0)), true) = (self.link_window.front(), self.link_window.len() > 1)
+            && t_s - t0 > 0.05
+        {
+            let dx = r.exchanges.saturating_sub(x0);
+            let de = r.total_errors.saturating_sub(e0);
+            l.error_pct = Some(if dx > 0 {
+                100.0 * de as f64 / dx as f64
+            } else if de > 0 {
+                100.0
+            } else {
+                0.0
+            });
+            l.errors_in_window = de;
         }
         l.exchanges = r.exchanges;
         l.errors = r.total_errors;
@@ -515,7 +638,9 @@ impl Pipeline {
 }
 
 /// The link colour: red when lost or no good frame for 1 s; amber when degraded, a good
-/// frame older than 0.25 s, more than 2 % errors or a median round trip over 100 ms.
+/// frame older than 0.25 s, a sustained error rate (more than 2 % of the exchanges of
+/// the last [`ERROR_WINDOW_S`] failed, and at least 3 of them) or a median round trip
+/// over 100 ms.
 #[must_use]
 pub fn quality(l: &LinkView) -> Quality {
     let age = l.last_good_age_s.unwrap_or(f64::INFINITY);
@@ -524,7 +649,8 @@ pub fn quality(l: &LinkView) -> Quality {
     }
     let err = l.error_pct.unwrap_or(0.0);
     let rtt = l.rtt_p50_ms.unwrap_or(0.0);
-    if l.health == "degraded" || age > 0.25 || err > 2.0 || rtt > 100.0 {
+    let sustained = err > 2.0 && l.errors_in_window >= 3;
+    if l.health == "degraded" || age > 0.25 || sustained || rtt > 100.0 {
         Quality::Amber
     } else {
         Quality::Green
@@ -580,11 +706,186 @@ mod tests {
         assert_eq!(p.view.link.exchange_hz, Some(50.0));
         assert_eq!(p.view.link.error_pct, Some(10.0));
         assert_eq!(p.view.link.quality, Quality::Amber);
+        // The errors count for ERROR_WINDOW_S: still amber a second later, green once
+        // they have left the window.
         p.link(2.0, &r(100, 5));
         p.nav(2.0, &NavRecord::default());
         p.set_time(2.0);
+        assert_eq!(p.view.link.error_pct, Some(5.0));
+        assert_eq!(p.view.link.quality, Quality::Amber);
+        for k in 3..=7 {
+            let t = f64::from(k);
+            p.link(t, &r(50 * k as u64, 5));
+            p.nav(t, &NavRecord::default());
+            p.set_time(t);
+        }
+        assert_eq!(p.view.link.error_pct, Some(0.0));
         assert_eq!(p.view.link.quality, Quality::Green);
-        p.set_time(3.5);
+        p.set_time(8.5);
         assert_eq!(p.view.link.quality, Quality::Red);
+    }
+
+    /// Issue 15 #8: one failed exchange in a 0.5 s interval (1 of 27, 3.7 %) does not
+    /// turn the light amber; a sustained error rate does.
+    #[test]
+    fn the_link_light_needs_a_sustained_error_rate_for_amber() {
+        let mut p = Pipeline::new(Source::Sim);
+        let rec = |x: u64, e: u64| LinkRecord {
+            state: LinkState::Connected,
+            exchanges: x,
+            total_errors: e,
+            rtt_p50_ms: 7.0,
+            rtt_p99_ms: 8.0,
+            ..LinkRecord::default()
+        };
+        let (mut x, mut e) = (0u64, 0u64);
+        for k in 0..40 {
+            let t = f64::from(k) * 0.5;
+            x += 27;
+            if k == 20 {
+                e += 1;
+            }
+            p.nav(t, &NavRecord::default());
+            p.link(t, &rec(x, e));
+            p.set_time(t);
+            assert_eq!(
+                p.view.link.quality,
+                Quality::Green,
+                "t = {t}: {:?}",
+                p.view.link
+            );
+        }
+        // 2 of 27 failing for several seconds: amber.
+        let mut amber_at = None;
+        for k in 40..60 {
+            let t = f64::from(k) * 0.5;
+            x += 27;
+            e += 2;
+            p.nav(t, &NavRecord::default());
+            p.link(t, &rec(x, e));
+            p.set_time(t);
+            if p.view.link.quality == Quality::Amber && amber_at.is_none() {
+                amber_at = Some(t);
+            }
+        }
+        let at = amber_at.expect("a sustained 7 % error rate must show amber");
+        assert!(at > 20.0 && at <= 25.0, "amber at {at}");
+    }
+}
+
+crate::clone_fields!(StationView {
+    source,
+    seq,
+    snapshot,
+    depth,
+    heading,
+    model,
+    feedforward,
+    prediction,
+    link,
+    health,
+    alarms,
+    pilot,
+    camera,
+    recording,
+    replay,
+    turns,
+    tick,
+    commands_dropped,
+    events,
+    last_refusal,
+    stale,
+    heave_mps,
+    hint,
+    control_priority,
+    alarm_limits,
+    dive,
+    checklist
+});
+
+crate::clone_fields!(LinkView {
+    health,
+    rtt_p50_ms,
+    rtt_p99_ms,
+    exchange_hz,
+    error_pct,
+    last_good_age_s,
+    errors_in_window,
+    exchanges,
+    errors,
+    quality,
+    port
+});
+
+crate::clone_fields!(PilotView {
+    raw,
+    shaped,
+    gain_pct,
+    gain_index,
+    arm_progress,
+    pad,
+    input,
+    buttons,
+    pad_raw,
+    pad_map,
+    shift
+});
+
+crate::clone_fields!(RecordingView {
+    path,
+    elapsed_s,
+    messages,
+    dropped,
+    error,
+    last_file
+});
+
+crate::clone_fields!(ReplayView {
+    position_s,
+    duration_s,
+    playing,
+    speed,
+    messages,
+    warnings,
+    index,
+    tick_s
+});
+
+impl Clone for PadStatus {
+    fn clone(&self) -> Self {
+        match self {
+            Self::Off => Self::Off,
+            Self::Unavailable(e) => Self::Unavailable(e.clone()),
+            Self::NoPad => Self::NoPad,
+            Self::Connected(n) => Self::Connected(n.clone()),
+            Self::WaitingForCentre(n) => Self::WaitingForCentre(n.clone()),
+            Self::Stale => Self::Stale,
+        }
+    }
+    fn clone_from(&mut self, other: &Self) {
+        match (self, other) {
+            (Self::Unavailable(a), Self::Unavailable(b))
+            | (Self::Connected(a), Self::Connected(b))
+            | (Self::WaitingForCentre(a), Self::WaitingForCentre(b)) => a.clone_from(b),
+            (me, _) => *me = other.clone(),
+        }
+    }
+}
+
+impl Clone for Source {
+    fn clone(&self) -> Self {
+        match self {
+            Self::None => Self::None,
+            Self::Sim => Self::Sim,
+            Self::Serial(p) => Self::Serial(p.clone()),
+            Self::Replay(p) => Self::Replay(p.clone()),
+        }
+    }
+    fn clone_from(&mut self, other: &Self) {
+        match (self, other) {
+            (Self::Serial(a), Self::Serial(b)) => a.clone_from(b),
+            (Self::Replay(a), Self::Replay(b)) => a.clone_from(b),
+            (me, _) => *me = other.clone(),
+        }
     }
 }

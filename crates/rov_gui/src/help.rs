@@ -1,0 +1,90 @@
+//! F1 or ?: every key and gamepad binding in one window (the gamepad part is the map in
+//! force, so it follows the pilot's settings).
+
+use egui::{RichText, vec2};
+use rov_station::runtime::pad::PadButton;
+
+use crate::app::StationApp;
+use crate::theme;
+
+/// The keyboard bindings: (keys, what).
+pub const KEYS: [(&str, &str); 16] = [
+    ("Space (hold 1 s)", "arm"),
+    ("Esc", "disarm"),
+    ("W / S", "forward / astern"),
+    ("A / D", "turn left / right"),
+    ("R / F", "rise / dive"),
+    ("1 2 3 4", "thrust gain 25 / 50 / 75 / 100 %"),
+    ("H", "depth hold on/off"),
+    ("J", "heading hold on/off"),
+    ("M", "dive-log marker"),
+    ("N", "type a dive-log note (Enter records it)"),
+    ("V", "camera view / instruments only"),
+    (", / .", "replay: one control tick back / forward"),
+    ("drag a tape", "set the depth or heading setpoint"),
+    ("F1 or ?", "this window"),
+    ("Enter", "in a setpoint field: go there"),
+    (
+        "Tab",
+        "move between fields (every page works from the keyboard)",
+    ),
+];
+
+pub(crate) fn help_window(app: &mut StationApp, ctx: &egui::Context) {
+    if !app.help_open {
+        return;
+    }
+    let map = app.live_view.pilot.pad_map.clone();
+    let mut open = true;
+    egui::Window::new("Keys and buttons")
+        .open(&mut open)
+        .collapsible(false)
+        .default_size(vec2(720.0, 460.0))
+        .show(ctx, |ui| {
+            egui::ScrollArea::vertical().show(ui, |ui| {
+                ui.columns(2, |cols| {
+                    let [left, right] = cols else { return };
+                    left.label(RichText::new("Keyboard").strong().color(theme::SCALE));
+                    egui::Grid::new("help_keys").striped(true).show(left, |ui| {
+                        for (k, what) in KEYS {
+                            ui.label(RichText::new(k).monospace());
+                            ui.label(what);
+                            ui.end_row();
+                        }
+                    });
+                    right.label(RichText::new("Gamepad").strong().color(theme::SCALE));
+                    right.label(format!(
+                        "surge: {}   yaw: {}   vertical: {} (up rises)",
+                        map.surge.key(),
+                        map.yaw.key(),
+                        map.vertical.key()
+                    ));
+                    let shift = map.shift.map_or("none", PadButton::key);
+                    egui::Grid::new("help_pad").striped(true).show(right, |ui| {
+                        ui.label(RichText::new("button").small().color(theme::DIM));
+                        ui.label(RichText::new("press").small().color(theme::DIM));
+                        ui.label(
+                            RichText::new(format!("with {shift} held"))
+                                .small()
+                                .color(theme::DIM),
+                        );
+                        ui.end_row();
+                        for b in PadButton::ALL {
+                            let n = map.action(b, false);
+                            let s = map.action(b, true);
+                            if n.is_none() && s.is_none() {
+                                continue;
+                            }
+                            ui.label(RichText::new(b.key()).monospace());
+                            ui.label(n.map_or("", |a| a.text()));
+                            ui.label(s.map_or("", |a| a.text()));
+                            ui.end_row();
+                        }
+                    });
+                });
+            });
+        });
+    if !open {
+        app.help_open = false;
+    }
+}

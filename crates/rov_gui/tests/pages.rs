@@ -1,0 +1,375 @@
+//! Issue 15, what a pilot brings to a real dive: the pages and tools added (alarm limits
+//! and the Settings page, ...), each exercised through the GUI on the virtual station
+//! and snapshotted (look at the PNGs in `tests/snapshots/`).
+
+mod common;
+
+use common::{FRAME_S, rig};
+use egui_kittest::kittest::{NodeT, Queryable};
+use rov_gui::Tab;
+use rov_station::runtime::dive::ItemStatus;
+use rov_station::runtime::{AlarmKind, AlarmLevel};
+
+/// Sets the n-th drag value labelled `label` through accesskit.
+fn set_value(r: &mut common::Rig, label: &str, n: usize, value: f64) {
+    r.harness
+        .get_all_by_label(label)
+        .filter(|node| node.accesskit_node().role() == egui::accesskit::Role::SpinButton)
+        .nth(n)
+        .unwrap_or_else(|| panic!("no drag value {label:?} #{n}"))
+        .set_value_accesskit(value);
+    r.run(FRAME_S);
+}
+
+#[test]
+fn alarm_limits_set_in_settings_warn_then_alarm_and_acknowledge() {
+    let mut r = rig("alarms.mcap");
+    r.run(2.0);
+    r.arm();
+    r.harness.state_mut().set_tab(Tab::Settings);
+    r.run(FRAME_S);
+    set_value(&mut r, "Max depth", 0, 1.5);
+    set_value(&mut r, "Max depth", 1, 2.2);
+    r.snapshot("settings_page");
+    r.click("Apply");
+    assert_eq!(r.view().alarm_limits.depth_m.warn, 1.5);
+    assert_eq!(r.view().alarm_limits.depth_m.alarm, 2.2);
+    r.harness.state_mut().set_tab(Tab::Fly);
+    r.run(FRAME_S);
+    // Hold depth and go 2 m deeper: first the warning, then the alarm.
+    r.click_nth("OFF", 0);
+    r.click_nth("+1", 0);
+    r.click_nth("+1", 0);
+    let mut saw_warning = false;
+    for _ in 0..200 {
+        r.run(0.1);
+        let v = r.view();
+        if let Some(a) = v.alarms.iter().find(|a| a.kind == AlarmKind::DepthMax) {
+            saw_warning |= a.level == AlarmLevel::Warning;
+            if a.level == AlarmLevel::Alarm {
+                break;
+            }
+        }
+    }
+    let v = r.view();
+    let a = v
+        .alarms
+        .iter()
+        .find(|a| a.kind == AlarmKind::DepthMax)
+        .copied()
+        .unwrap_or_else(|| panic!("{:?} at {:?} m", v.alarms, v.snapshot.depth_m));
+    assert!(saw_warning, "no warning before the alarm");
+    assert_eq!(a.level, AlarmLevel::Alarm);
+    assert_eq!(a.limit, Some(2.2));
+    assert!(!a.acknowledged);
+    assert!(r.has_label_containing("DEPTH LIMIT"));
+    r.snapshot("alarm_depth_limit");
+    r.click("ACK");
+    let a = r
+        .view()
+        .alarms
+        .iter()
+        .find(|a| a.kind == AlarmKind::DepthMax)
+        .copied()
+        .unwrap();
+    assert!(a.acknowledged && a.active);
+    // The event log recorded the warning and the alarm.
+    let events = r.view().events.join("\n");
+    assert!(events.contains("DEPTH LIMIT (warning)"), "{events}");
+    assert!(events.contains("DEPTH LIMIT (ALARM)"), "{events}");
+}
+
+#[test]
+fn the_predive_checklist_runs_and_its_result_is_recorded() {
+    let mut r = rig("predive.mcap");
+    r.run(2.0);
+    r.harness.state_mut().set_tab(Tab::PreDive);
+    r.run(FRAME_S);
+    r.click("Heading is right");
+    r.click("Zero depth here");
+    let c = r.view().checklist;
+    assert_eq!(c.items[1].status, ItemStatus::Pass, "{:?}", c.items[1]);
+    assert_eq!(c.items[3].status, ItemStatus::Pass, "{:?}", c.items[3]);
+    // The thruster test needs arming and a confirmation.
+    assert!(
+        r.harness
+            .get_by_label("Run thruster test")
+            .accesskit_node()
+            .is_disabled()
+    );
+    r.harness.state_mut().set_tab(Tab::Fly);
+    r.run(FRAME_S);
+    r.arm();
+    r.harness.state_mut().set_tab(Tab::PreDive);
+    r.run(FRAME_S);
+    r.click("Run thruster test");
+    assert!(
+        r.view().checklist.test_running.is_none(),
+        "not before the confirmation"
+    );
+    r.click("Start the test");
+    r.run(0.4);
+    assert_eq!(r.view().checklist.test_running, Some(Some(0)), "port first");
+    assert!(r.view().snapshot.thrust.port_pct > 20.0);
+    r.run(5.0);
+    let c = r.view().checklist;
+    assert_eq!(c.test_running, None);
+    for t in c.thrusters {
+        assert_eq!(t.commanded_pct, 25.0);
+        assert!(t.drew_current(), "{t:?}");
+    }
+    assert_eq!(c.items[2].status, ItemStatus::Pass, "{:?}", c.items[2]);
+    assert_eq!(c.passed(), 5, "{:#?}", c.items);
+    r.snapshot("predive_checklist");
+    r.click("Record the result in the session");
+    r.click("STOP REC");
+    r.run(0.3);
+    let path = r.view().recording.last_file.clone().unwrap();
+    let session = rov_session::open(&path).unwrap();
+    let events = session.records::<rov_session::EventRecord>().unwrap();
+    let rec = events
+        .iter()
+        .find(|(_, e)| e.kind == "checklist" && e.text.starts_with("pre-dive checklist"))
+        .unwrap_or_else(|| panic!("{events:#?}"));
+    assert!(rec.1.text.contains("5/5 passed"), "{}", rec.1.text);
+    assert!(rec.1.text.contains("port +25 %"), "{}", rec.1.text);
+}
+
+#[test]
+fn dive_log_markers_and_notes_are_recorded_and_shown_in_replay() {
+    let mut r = rig("divelog.mcap");
+    r.run(2.0);
+    r.arm();
+    r.click_nth("OFF", 0);
+    r.click_nth("+1", 0);
+    r.run(4.0);
+    assert!(r.view().dive.diving, "{:?}", r.view().dive);
+    r.harness.key_press(egui::Key::M);
+    r.run(FRAME_S);
+    r.harness.key_press(egui::Key::N);
+    r.run(FRAME_S);
+    r.harness.event(egui::Event::Text("wreck in sight".into()));
+    r.run(FRAME_S);
+    r.harness.key_press(egui::Key::Enter);
+    r.run(0.2);
+    let d = r.view().dive;
+    assert_eq!((d.markers, d.notes), (1, 1), "{d:?}");
+    assert!(d.dive_s > 2.0 && d.max_depth_m > 0.5, "{d:?}");
+    r.snapshot("fly_dive_log");
+    r.click("STOP REC");
+    r.run(0.2);
+    r.harness.state_mut().set_tab(Tab::Replay);
+    r.run(FRAME_S);
+    r.click_containing("Open the last recording");
+    r.run(FRAME_S);
+    let labels = r.labels_containing("marker 1");
+    assert!(!labels.is_empty(), "marker not in the replay index");
+    let notes = r.labels_containing("wreck in sight");
+    assert!(notes.iter().any(|l| l.contains("note 1")), "{notes:?}");
+    assert!(r.has_label_containing("dive 1 started"));
+}
+
+#[test]
+fn f1_shows_every_key_and_gamepad_binding() {
+    let mut r = rig("help.mcap");
+    r.run(1.0);
+    assert!(!r.has_label_containing("Keys and buttons"));
+    r.harness.key_press(egui::Key::F1);
+    r.run(FRAME_S);
+    assert!(r.has_label_containing("Keys and buttons"));
+    for k in rov_gui::help_keys() {
+        assert!(r.has_label_containing(k), "{k} missing");
+    }
+    for text in [
+        "depth hold on/off",
+        "record on/off",
+        "with left_trigger held",
+    ] {
+        assert!(r.has_label_containing(text), "{text} missing");
+    }
+    r.snapshot("help_keys_and_buttons");
+    r.harness.key_press(egui::Key::F1);
+    r.run(FRAME_S);
+    assert!(!r.has_label_containing("Keys and buttons"));
+}
+
+#[test]
+fn the_gamepad_page_shows_raw_and_shaped_and_applies_the_shaping() {
+    use rov_station::runtime::RuntimeCommand;
+    use rov_station::runtime::pad::PadState;
+    let mut r = rig("pad.mcap");
+    r.run(1.0);
+    r.harness.state_mut().set_tab(Tab::Gamepad);
+    let mut half = PadState::default();
+    // Centre first (the reconnect rule), then the left stick half forward.
+    for _ in 0..4 {
+        r.harness
+            .state_mut()
+            .command(RuntimeCommand::PadInput(PadState::default()));
+        r.run(FRAME_S);
+    }
+    half.axes[1] = 0.5;
+    let push = |r: &mut common::Rig| {
+        r.harness
+            .state_mut()
+            .command(RuntimeCommand::PadInput(half));
+        r.run(FRAME_S);
+    };
+    for _ in 0..4 {
+        push(&mut r);
+    }
+    let p = r.view().pilot;
+    assert_eq!(p.input, "gamepad");
+    assert_eq!(p.raw.surge, 0.5);
+    assert!(
+        p.shaped.surge > 0.2 && p.shaped.surge < 0.5,
+        "{:?}",
+        p.shaped
+    );
+    assert!(r.has_label_containing("left_y +0.50"));
+    r.snapshot("gamepad_page");
+    // A 0.5 deadband on surge swallows a half deflection.
+    set_value(&mut r, "surge", 0, 0.5);
+    r.click("Apply map");
+    for _ in 0..3 {
+        push(&mut r);
+    }
+    assert_eq!(
+        r.view().pilot.shaped.surge,
+        0.0,
+        "{:?}",
+        r.view().pilot.shaped
+    );
+}
+
+/// Every tab at the smallest and the largest window a pilot uses: no control cut off
+/// (egui's clipped rectangles; scroll areas excepted), and the Fly tab's main view fills
+/// the space left by the side panel (no empty band). Snapshots of each.
+fn every_tab_fits(w: f32, h: f32) {
+    let mut problems = Vec::new();
+    let mut r = common::rig_sized(&format!("size{w}/size.mcap"), egui::vec2(w, h));
+    for e in std::fs::read_dir(common::tmp(&format!("size{w}")))
+        .unwrap()
+        .flatten()
+    {
+        if e.path().extension().is_some_and(|x| x == "mcap") && !e.path().ends_with("size.mcap") {
+            let _ = std::fs::remove_file(e.path());
+        }
+    }
+    r.run(2.0);
+    r.arm();
+    r.click_nth("OFF", 0);
+    r.run(1.0);
+    // A finished recording: the session browser's row is the same on every run.
+    r.click("STOP REC");
+    r.run(0.2);
+    for (tab, name) in [
+        (Tab::Fly, "fly"),
+        (Tab::PreDive, "predive"),
+        (Tab::Plots, "plots"),
+        (Tab::Replay, "replay"),
+        (Tab::Lab, "lab"),
+        (Tab::Connection, "connection"),
+        (Tab::Gamepad, "gamepad"),
+        (Tab::Settings, "settings"),
+    ] {
+        r.harness.state_mut().set_tab(tab);
+        r.run(FRAME_S);
+        r.harness.state_mut().browser_mut().wait();
+        r.run(FRAME_S);
+        r.harness.step();
+        for c in r.harness.state().clipped_widgets(&r.harness.ctx) {
+            problems.push(format!(
+                "{w}x{h} {name}: {:?} at {:?} visible {:?}",
+                c.label, c.rect, c.visible
+            ));
+        }
+        if tab == Tab::Fly {
+            let main = r.harness.state().main_view_rect().unwrap();
+            if !(main.width() > 0.6 * w && main.height() > h - 200.0) {
+                problems.push(format!("{w}x{h}: main view {main:?}"));
+            }
+        }
+        r.snapshot(&format!("size_{w}x{h}_{name}"));
+    }
+    assert!(
+        problems.is_empty(),
+        "controls cut off:\n{}",
+        problems.join("\n")
+    );
+}
+
+#[test]
+fn every_tab_fits_at_1024x600() {
+    every_tab_fits(1024.0, 600.0);
+}
+
+#[test]
+fn every_tab_fits_at_1920x1080() {
+    every_tab_fits(1920.0, 1080.0);
+}
+
+#[test]
+fn the_session_browser_lists_exports_replays_and_sends_to_the_lab() {
+    let mut r = rig("browser/first.mcap");
+    r.run(2.0);
+    r.harness.key_press(egui::Key::N);
+    r.run(FRAME_S);
+    r.harness.event(egui::Event::Text("pier leg B".into()));
+    r.run(FRAME_S);
+    r.harness.key_press(egui::Key::Enter);
+    r.run(2.0);
+    r.click("STOP REC");
+    r.run(0.3);
+    r.harness.state_mut().set_tab(Tab::Replay);
+    r.run(FRAME_S);
+    r.harness.state_mut().browser_mut().wait();
+    r.run(FRAME_S);
+    let entries = r.harness.state().browser().entries.clone();
+    assert_eq!(entries.len(), 1, "{entries:#?}");
+    let e = &entries[0];
+    assert_eq!(e.vehicle, "sim");
+    assert!(
+        e.duration_s > 3.0 && e.complete && e.size_bytes > 10_000,
+        "{e:?}"
+    );
+    assert!(e.notes.iter().any(|n| n.contains("pier leg B")), "{e:?}");
+    assert!(r.has_label_containing("pier leg B"));
+    // The folder and the wall-clock date depend on the machine and the moment
+    // (snapshot() masks them).
+    r.snapshot("session_browser");
+    // Export through the save dialog (the test backend answers it).
+    let csv = common::tmp("browser/first-export.csv");
+    let _ = std::fs::remove_file(&csv);
+    *r.shared.dialog.lock().unwrap() = Some(csv.clone());
+    r.click("Export CSV");
+    let text = std::fs::read_to_string(&csv).unwrap();
+    assert!(
+        text.starts_with("t_s,") || text.contains("depth_m"),
+        "{}",
+        &text[..200.min(text.len())]
+    );
+    assert!(r.message().unwrap_or_default().contains("exported"));
+    // To the lab: loads in the background.
+    r.click("To lab");
+    assert_eq!(r.harness.state().tab(), Tab::Lab);
+    let t0 = std::time::Instant::now();
+    while r.harness.state().lab().is_busy() && t0.elapsed().as_secs() < 60 {
+        r.run(FRAME_S);
+    }
+    assert!(
+        r.harness.state().lab().data.is_some(),
+        "{:?}",
+        r.harness.state().lab().error
+    );
+    // Replay through the open dialog.
+    r.harness.state_mut().set_tab(Tab::Replay);
+    r.run(FRAME_S);
+    *r.shared.dialog.lock().unwrap() = Some(e.path.clone());
+    r.click("Browse…");
+    assert!(
+        r.harness.state().replay_view().is_some(),
+        "{:?}",
+        r.message()
+    );
+}

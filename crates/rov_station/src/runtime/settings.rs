@@ -1,0 +1,292 @@
+//! The pilot's settings in the station configuration (`config/station.toml`): the
+//! `[alarms]` limits ([`AlarmConfig`]) and the `[station]` table ([`StationSettings`]:
+//! units, serial port and baud, recordings folder, recording on connection, simulated
+//! link faults). Read with the same located errors as `[control]` (file, key, value,
+//! allowed range); written back by [`save`], which replaces only these two tables and
+//! keeps every other table and comment of the file (`toml_edit`).
+
+use std::path::{Path, PathBuf};
+
+use rov_types::params::{ConfigError, ParamFile};
+use serde::Serialize;
+
+use crate::runtime::alarms::AlarmConfig;
+use crate::runtime::pad::PadMap;
+use crate::runtime::shaping::StickShaping;
+
+/// Everything the pilot sets in the station configuration.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct PilotSettings {
+    /// `[alarms]`.
+    pub alarms: AlarmConfig,
+    /// `[station]`.
+    pub station: StationSettings,
+    /// `[gamepad]` axes and buttons.
+    pub pad: PadMap,
+    /// `[gamepad.surge]`, `[gamepad.yaw]`, `[gamepad.vertical]`.
+    pub shaping: StickShaping,
+}
+
+/// Depth unit shown.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
+pub enum DepthUnit {
+    /// Metres.
+    #[default]
+    Metres,
+    /// Feet.
+    Feet,
+}
+
+/// Temperature unit shown.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
+pub enum TempUnit {
+    /// Degrees Celsius.
+    #[default]
+    Celsius,
+    /// Degrees Fahrenheit.
+    Fahrenheit,
+}
+
+/// The `[station]` table.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct StationSettings {
+    /// Depth unit.
+    pub depth_unit: DepthUnit,
+    /// Temperature unit.
+    pub temp_unit: TempUnit,
+    /// Serial port of the Pro 4 (empty: the simulator).
+    pub serial_port: String,
+    /// Baud rate (the Pro 4 talks 115200).
+    pub baud: u32,
+    /// Where recordings go.
+    pub recordings_dir: PathBuf,
+    /// Start recording on every new connection.
+    pub record_on_connect: bool,
+    /// Simulated vehicle only: replies dropped, % (0: a clean link; fault injection
+    /// for training).
+    pub sim_link_errors_pct: f64,
+}
+
+impl Default for StationSettings {
+    fn default() -> Self {
+        Self {
+            depth_unit: DepthUnit::Metres,
+            temp_unit: TempUnit::Celsius,
+            serial_port: String::new(),
+            baud: 115_200,
+            recordings_dir: PathBuf::from("recordings"),
+            record_on_connect: true,
+            sim_link_errors_pct: 0.0,
+        }
+    }
+}
+
+/// Baud rates offered.
+pub const BAUDS: [u32; 5] = [9_600, 19_200, 38_400, 57_600, 115_200];
+
+impl StationSettings {
+    /// Reads `[station]` (every key optional).
+    ///
+    /// # Errors
+    /// [`ConfigError`] naming the file, key, value and allowed range.
+    pub fn from_param_file(f: &ParamFile) -> Result<Self, ConfigError> {
+        let d = Self::default();
+        let depth_unit = match f
+            .choice("station.depth_unit", &["m", "ft"], Some("m"))?
+            .as_str()
+        {
+            "ft" => DepthUnit::Feet,
+            _ => DepthUnit::Metres,
+        };
+        let temp_unit = match f
+            .choice("station.temp_unit", &["c", "f"], Some("c"))?
+            .as_str()
+        {
+            "f" => TempUnit::Fahrenheit,
+            _ => TempUnit::Celsius,
+        };
+        let baud = f.f64_or("station.baud", 1200.0..=4_000_000.0, f64::from(d.baud))?;
+        let s = Self {
+            depth_unit,
+            temp_unit,
+            serial_port: f.string_or("station.serial_port", "")?,
+            baud: baud.round() as u32,
+            recordings_dir: PathBuf::from(f.string_or("station.recordings_dir", "recordings")?),
+            record_on_connect: f.bool_or("station.record_on_connect", true)?,
+            sim_link_errors_pct: f.f64_or("station.sim_link_errors_pct", 0.0..=50.0, 0.0)?,
+        };
+        f.reject_unknown("station")?;
+        Ok(s)
+    }
+
+    /// The `[station]` table as TOML.
+    #[must_use]
+    pub fn to_toml(&self) -> String {
+        let q = |s: &str| toml_edit::Value::from(s).to_string();
+        format!(
+            "depth_unit = {}\ntemp_unit = {}\nserial_port = {}\nbaud = {}\nrecordings_dir = {}\nrecord_on_connect = {}\nsim_link_errors_pct = {:?}\n",
+            q(match self.depth_unit {
+                DepthUnit::Metres => "m",
+                DepthUnit::Feet => "ft",
+            }),
+            q(match self.temp_unit {
+                TempUnit::Celsius => "c",
+                TempUnit::Fahrenheit => "f",
+            }),
+            q(&self.serial_port),
+            self.baud,
+            q(&self.recordings_dir.display().to_string()),
+            self.record_on_connect,
+            self.sim_link_errors_pct
+        )
+    }
+}
+
+/// Reads the pilot's tables of a station configuration text.
+///
+/// # Errors
+/// [`ConfigError`] naming the file, key, value and allowed range.
+pub fn load(text: &str, label: &str) -> Result<(AlarmConfig, StationSettings), ConfigError> {
+    let p = load_all(text, label)?;
+    Ok((p.alarms, p.station))
+}
+
+/// Reads every pilot table (alarms, station, gamepad map and stick shaping); unknown
+/// keys under `[gamepad]` are refused.
+///
+/// # Errors
+/// [`ConfigError`] naming the file, key, value and allowed range.
+pub fn load_all(text: &str, label: &str) -> Result<PilotSettings, ConfigError> {
+    let f = ParamFile::parse(text, label, false)?;
+    let p = PilotSettings {
+        alarms: AlarmConfig::from_param_file(&f)?,
+        station: StationSettings::from_param_file(&f)?,
+        pad: PadMap::from_param_file(&f)?,
+        shaping: StickShaping::from_param_file(&f)?,
+    };
+    f.reject_unknown("gamepad")?;
+    Ok(p)
+}
+
+/// Writes `[alarms]` and `[station]` into the file at `path` (created if absent),
+/// keeping its other tables and comments; atomically (a temporary file renamed).
+///
+/// # Errors
+/// A message naming the file.
+pub fn save(path: &Path, alarms: &AlarmConfig, station: &StationSettings) -> Result<(), String> {
+    let fresh = format!(
+        "[alarms]\n{}\n[station]\n{}",
+        alarms.to_toml(),
+        station.to_toml()
+    );
+    save_tables(path, &fresh, &["alarms", "station"])
+}
+
+/// Writes `[gamepad]` (axes, shift, buttons, shift buttons, stick shaping) into the file
+/// at `path` like [`save`].
+///
+/// # Errors
+/// A message naming the file.
+pub fn save_gamepad(path: &Path, pad: &PadMap, shaping: &StickShaping) -> Result<(), String> {
+    let (head, buttons, shifted) = pad.to_toml();
+    let fresh = format!(
+        "[gamepad]\n{head}[gamepad.surge]\n{}[gamepad.yaw]\n{}[gamepad.vertical]\n{}[gamepad.buttons]\n{buttons}[gamepad.shift_buttons]\n{shifted}",
+        StickShaping::axis_toml(&shaping.surge),
+        StickShaping::axis_toml(&shaping.yaw),
+        StickShaping::axis_toml(&shaping.vertical),
+    );
+    // The button tables are replaced whole (a button unmapped must disappear).
+    save_tables(path, &fresh, &["gamepad"])
+}
+
+fn save_tables(path: &Path, fresh: &str, tables: &[&str]) -> Result<(), String> {
+    let text = std::fs::read_to_string(path).unwrap_or_default();
+    let mut doc: toml_edit::DocumentMut = text
+        .parse()
+        .map_err(|e| format!("{}: not valid TOML: {e}", path.display()))?;
+    let fresh: toml_edit::DocumentMut = fresh.parse().map_err(|e| format!("settings: {e}"))?;
+    for &table in tables {
+        if table == "gamepad" {
+            let new = fresh.get(table).cloned().unwrap_or_else(toml_edit::table);
+            doc.insert(table, new);
+            continue;
+        }
+        let new = fresh.get(table).cloned().unwrap_or_else(toml_edit::table);
+        match doc.get_mut(table).and_then(toml_edit::Item::as_table_mut) {
+            // Keep the table's and the keys' comments: replace the values only.
+            Some(t) => {
+                if let Some(n) = new.as_table() {
+                    for (k, v) in n {
+                        match (
+                            t.get_mut(k).and_then(toml_edit::Item::as_value_mut),
+                            v.as_value(),
+                        ) {
+                            (Some(old), Some(nv)) => {
+                                let decor = old.decor().clone();
+                                *old = nv.clone();
+                                *old.decor_mut() = decor;
+                            }
+                            _ => {
+                                t.insert(k, v.clone());
+                            }
+                        }
+                    }
+                }
+            }
+            None => {
+                doc.insert(table, new);
+            }
+        }
+    }
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    }
+    let tmp = path.with_extension("toml.tmp");
+    std::fs::write(&tmp, doc.to_string()).map_err(|e| format!("{}: {e}", tmp.display()))?;
+    std::fs::rename(&tmp, path).map_err(|e| format!("{}: {e}", path.display()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn settings_round_trip_and_keep_the_rest_of_the_file() {
+        let dir = std::env::temp_dir().join(format!("rov_settings_{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("station.toml");
+        std::fs::write(
+            &path,
+            "# Station settings.\n[control]\n# rate\nrate_hz = 50.0\n\n[alarms]\n# the pilot's limits\ndepth_warn_m = 10.0\n",
+        )
+        .unwrap();
+        let text = std::fs::read_to_string(&path).unwrap();
+        let (mut alarms, mut station) = load(&text, "station.toml").unwrap();
+        assert_eq!(alarms.depth_m.warn, 10.0);
+        alarms.depth_m.alarm = 12.0;
+        station.depth_unit = DepthUnit::Feet;
+        station.serial_port = "/dev/ttyUSB0".into();
+        save(&path, &alarms, &station).unwrap();
+        let text = std::fs::read_to_string(&path).unwrap();
+        assert!(text.contains("# rate\nrate_hz = 50.0"), "{text}");
+        assert!(text.contains("# the pilot's limits"), "{text}");
+        let (a2, s2) = load(&text, "station.toml").unwrap();
+        assert_eq!((a2, s2), (alarms, station));
+        // A bad value names file, key, value and range.
+        let e = load("[station]\nbaud = 12\n", "config/station.toml")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("config/station.toml") && e.contains("station.baud") && e.contains("12"),
+            "{e}"
+        );
+        let e = load("[station]\ndepth_unit = \"yards\"\n", "s.toml")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("station.depth_unit") && e.contains("one of m, ft"),
+            "{e}"
+        );
+        std::fs::remove_dir_all(&dir).ok();
+    }
+}
