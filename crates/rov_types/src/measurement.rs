@@ -16,8 +16,6 @@
 //! An empty cell, `nan` or `NaN` in a measurement column is a missing sample (kept as
 //! NaN, never dropped). Time and thrust cells must be finite.
 
-use std::fmt::Write as _;
-
 /// The required columns, in the order the writer uses.
 pub const REQUIRED_COLUMNS: [&str; 8] = [
     "time_s",
@@ -367,11 +365,7 @@ impl MeasurementSeries {
 }
 
 fn push_num(out: &mut String, x: f64) {
-    if x.is_nan() {
-        out.push_str("nan");
-    } else {
-        let _ = write!(out, "{x}");
-    }
+    crate::number::push_f64(out, x);
 }
 
 fn parse_cell(cell: &str) -> Option<f64> {
