@@ -38,6 +38,15 @@ pub enum SessionError {
         /// The cap, bytes.
         max: usize,
     },
+    /// A video access unit was refused.
+    #[error("{topic}: {source}")]
+    Video {
+        /// Topic.
+        topic: String,
+        /// What is wrong with it.
+        #[source]
+        source: crate::foxglove::VideoError,
+    },
     /// A record could not be encoded as JSON.
     #[error("{topic}: cannot encode the record as JSON: {detail}")]
     Encode {

@@ -8,7 +8,8 @@ use std::path::{Path, PathBuf};
 use mcap::records::MessageHeader;
 
 use crate::error::{Result, SessionError, io_err};
-use crate::reader::{Damage, Session};
+use crate::message::Damage;
+use crate::session::Session;
 
 /// What [`recover`] did.
 #[derive(Debug, Clone, PartialEq)]
@@ -71,12 +72,14 @@ pub fn recovered_path(input: &Path) -> PathBuf {
     input.with_file_name(format!("{stem}.recovered.mcap"))
 }
 
-/// Reads `input` as far as it is intact and writes everything up to the last good record
-/// to [`recovered_path`]`(input)` as a complete MCAP file (with summary and indexes).
+/// Reads `input` as far as it is intact (every record, by a scan: damage anywhere is
+/// found) and writes everything up to the last good record to [`recovered_path`]`(input)`
+/// as a complete MCAP file (with summary and indexes), every channel kept (video too).
 /// The input is never modified; the output is written to a temporary name and renamed.
+/// Memory stays bounded: both passes stream.
 pub fn recover(input: impl AsRef<Path>) -> Result<RecoveryReport> {
     let input = input.as_ref();
-    let session = Session::open(input)?;
+    let session = Session::open_scanned(input)?;
     let output = recovered_path(input);
     if output == input {
         return Err(SessionError::Unusable(format!(
@@ -84,25 +87,26 @@ pub fn recover(input: impl AsRef<Path>) -> Result<RecoveryReport> {
             input.display()
         )));
     }
-    write_copy(&session, &output)?;
+    let copied = write_copy(&session, &output)?;
     let input_bytes = session.file_len();
-    let good_bytes = session.damage().map_or(input_bytes, Damage::at_byte);
+    let damage = session.damage();
+    let good_bytes = damage.as_ref().map_or(input_bytes, Damage::at_byte);
     Ok(RecoveryReport {
         input: input.to_path_buf(),
         output,
         input_bytes,
         good_bytes,
         lost_bytes: input_bytes.saturating_sub(good_bytes),
-        messages_recovered: session.len() as u64,
+        messages_recovered: copied,
         last_good_t_ns: session.end_ns(),
-        damage: session.damage().cloned(),
-        warnings: session.warnings.clone(),
+        damage,
+        warnings: session.warnings().to_vec(),
     })
 }
 
 /// Writes every schema, channel, attachment, metadata record and message (in file order)
-/// of `session` to a complete MCAP file at `output`.
-pub fn write_copy(session: &Session, output: &Path) -> Result<()> {
+/// of `session` to a complete MCAP file at `output`; returns the messages copied.
+pub fn write_copy(session: &Session, output: &Path) -> Result<u64> {
     let tmp = output.with_extension("mcap.partial");
     let file = File::create(&tmp).map_err(io_err(&tmp, "create"))?;
     let mcap_err = |source| SessionError::Mcap {
@@ -155,6 +159,7 @@ pub fn write_copy(session: &Session, output: &Path) -> Result<()> {
             .map_err(mcap_err)?;
         channel_ids.insert(*id, new);
     }
+    let mut copied = 0u64;
     for m in session.messages_in_file_order() {
         let Some(&channel_id) = channel_ids.get(&m.channel_id) else {
             continue;
@@ -165,8 +170,9 @@ pub fn write_copy(session: &Session, output: &Path) -> Result<()> {
             log_time: m.t_ns,
             publish_time: m.t_ns,
         };
-        w.write_to_known_channel(&header, m.data)
+        w.write_to_known_channel(&header, m.data())
             .map_err(mcap_err)?;
+        copied += 1;
     }
     w.finish().map_err(mcap_err)?;
     let file = w.into_inner().into_inner().map_err(|e| SessionError::Io {
@@ -177,7 +183,7 @@ pub fn write_copy(session: &Session, output: &Path) -> Result<()> {
     file.sync_all().map_err(io_err(&tmp, "fsync"))?;
     drop(file);
     std::fs::rename(&tmp, output).map_err(io_err(output, "rename the finished file to"))?;
-    Ok(())
+    Ok(copied)
 }
 
 #[cfg(test)]

@@ -40,9 +40,18 @@
 //!
 //! # Bounds
 //!
-//! A message larger than `max_message_bytes` (default 1 MiB) is refused with
+//! A message larger than `max_message_bytes` (default 1 MiB; video access units:
+//! `max_video_message_bytes`, default 8 MiB) is refused with
 //! [`SessionError::MessageTooLarge`]: JSON encoding stops at the cap, so an oversized
 //! record costs no more than the cap in memory.
+//!
+//! # Foxglove topics
+//!
+//! Every `/telemetry/nav` record also gives the vehicle's pose ([`crate::foxglove`]): a
+//! `foxglove.FrameTransform` on `/tf` and a `foxglove.PoseInFrame` on `/vehicle/pose` at
+//! most every `pose_interval_ns` (default 100 ms), north and east from the latest
+//! `/truth/state` (simulated vehicle) or 0, and the recent track on `/vehicle/track`.
+//! [`SessionWriter::write_video`] records camera video as `foxglove.CompressedVideo`.
 
 use std::collections::BTreeMap;
 use std::fs::File;
@@ -52,7 +61,8 @@ use std::path::{Path, PathBuf};
 use mcap::records::MessageHeader;
 
 use crate::error::{Result, SessionError, io_err};
-use crate::record::{Direction, JSON_SCHEMA_ENCODING, Record, SessionInfo, Topic, schema_of};
+use crate::foxglove::{self, Track, VehiclePose};
+use crate::record::{Direction, NavRecord, Record, SessionInfo, Topic, TruthRecord};
 
 /// Nanoseconds per millisecond.
 const MS: u64 = 1_000_000;
@@ -71,6 +81,11 @@ pub struct WriterOptions {
     pub max_message_bytes: usize,
     /// zstd-compress the chunks (default true).
     pub compress: bool,
+    /// Largest video access unit accepted, bytes (default 8 MiB).
+    pub max_video_message_bytes: usize,
+    /// Write the pose topics at most this often, ns of session time (default 100 ms);
+    /// `u64::MAX`: no pose topics.
+    pub pose_interval_ns: u64,
 }
 
 impl Default for WriterOptions {
@@ -80,6 +95,8 @@ impl Default for WriterOptions {
             sync_interval_ns: 1_000 * MS,
             max_message_bytes: 1 << 20,
             compress: true,
+            max_video_message_bytes: 8 << 20,
+            pose_interval_ns: 100 * MS,
         }
     }
 }
@@ -110,7 +127,14 @@ pub struct SessionWriter {
     last_sync_ns: u64,
     unsynced: bool,
     messages: u64,
+    /// (time, north, east) of the latest truth record.
+    last_truth: Option<(u64, f64, f64)>,
+    last_pose_ns: Option<u64>,
+    track: Track,
 }
+
+/// Truth older than this is not used for the pose's position, ns.
+const TRUTH_MAX_AGE_NS: u64 = 1_000_000_000;
 
 impl std::fmt::Debug for SessionWriter {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -194,6 +218,9 @@ impl SessionWriter {
             last_sync_ns: t_ns,
             unsynced: true,
             messages: 0,
+            last_truth: None,
+            last_pose_ns: None,
+            track: Track::default(),
         };
         let started_ns = if info.started_unix_s.is_finite() && info.started_unix_s > 0.0 {
             (info.started_unix_s * 1e9) as u64
@@ -252,14 +279,13 @@ impl SessionWriter {
         if let Some(Some(id)) = self.channels.get(topic.index()) {
             return Ok(*id);
         }
-        let schema_id = match schema_of(topic) {
-            Some((name, schema)) => {
-                let text = schema.to_string();
-                self.mcap
-                    .add_schema(name, JSON_SCHEMA_ENCODING, text.as_bytes())
-                    .map_err(self.mcap_err())?
-            }
-            None => 0,
+        let schema = foxglove::channel_schema(topic);
+        let schema_id = if schema.name.is_empty() {
+            0
+        } else {
+            self.mcap
+                .add_schema(&schema.name, &schema.encoding, &schema.data)
+                .map_err(self.mcap_err())?
         };
         let id = self
             .mcap
@@ -317,7 +343,81 @@ impl SessionWriter {
             topic: T::TOPIC.name().into(),
             detail: e.to_string(),
         })?;
-        self.put(T::TOPIC, t_ns, None)
+        self.put(T::TOPIC, t_ns, None)?;
+        let any: &dyn std::any::Any = record;
+        if let Some(t) = any.downcast_ref::<TruthRecord>() {
+            self.last_truth = (t.north_m.is_finite() && t.east_m.is_finite())
+                .then_some((t_ns, t.north_m, t.east_m));
+        } else if let Some(nav) = any.downcast_ref::<NavRecord>() {
+            self.nav_pose(t_ns, nav)?;
+        }
+        Ok(())
+    }
+
+    /// The pose topics of a navigation record, when due.
+    fn nav_pose(&mut self, t_ns: u64, nav: &NavRecord) -> Result<()> {
+        if self.opts.pose_interval_ns == u64::MAX {
+            return Ok(());
+        }
+        let due = self
+            .last_pose_ns
+            .is_none_or(|l| t_ns < l || t_ns - l >= self.opts.pose_interval_ns);
+        if !due {
+            return Ok(());
+        }
+        let truth = self
+            .last_truth
+            .filter(|(t, _, _)| t_ns.abs_diff(*t) <= TRUTH_MAX_AGE_NS)
+            .map(|(_, north_m, east_m)| TruthRecord {
+                north_m,
+                east_m,
+                ..TruthRecord::default()
+            });
+        if let Some(p) = VehiclePose::from_nav(t_ns, nav, truth.as_ref()) {
+            self.write_pose(&p)?;
+        }
+        Ok(())
+    }
+
+    /// Writes a pose: `/tf`, `/vehicle/pose`, and `/vehicle/track` when one is due (see
+    /// [`crate::foxglove`]). The writer calls this itself for every navigation record; call
+    /// it directly only for poses from another source.
+    pub fn write_pose(&mut self, p: &VehiclePose) -> Result<()> {
+        self.last_pose_ns = Some(p.t_ns);
+        let tf = foxglove::encode(&foxglove::frame_transform(p));
+        self.put(Topic::Transform, p.t_ns, Some(&tf))?;
+        let pose = foxglove::encode(&foxglove::pose_in_frame(p));
+        self.put(Topic::Pose, p.t_ns, Some(&pose))?;
+        if let Some(track) = self.track.push(p) {
+            let bytes = foxglove::encode(&track);
+            if bytes.len() <= self.opts.max_message_bytes {
+                self.put(Topic::Track, p.t_ns, Some(&bytes))?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Records one H.264 access unit (Annex B) captured at `t_ns` on `/camera/video` as a
+    /// `foxglove.CompressedVideo`. A key frame must carry SPS, PPS and an IDR slice; an
+    /// access unit not flagged as a key frame must not hold an IDR slice
+    /// ([`SessionError::Video`] otherwise, nothing written).
+    pub fn write_video(&mut self, t_ns: u64, access_unit: &[u8], key_frame: bool) -> Result<()> {
+        let topic = Topic::Video;
+        if access_unit.len() > self.opts.max_video_message_bytes {
+            return Err(SessionError::MessageTooLarge {
+                topic: topic.name().into(),
+                len: access_unit.len(),
+                max: self.opts.max_video_message_bytes,
+            });
+        }
+        foxglove::check_access_unit(access_unit, key_frame).map_err(|source| {
+            SessionError::Video {
+                topic: topic.name().into(),
+                source,
+            }
+        })?;
+        let bytes = foxglove::encode(&foxglove::video_message(t_ns, access_unit));
+        self.put(topic, t_ns, Some(&bytes))
     }
 
     /// Writes a raw frame (the frame's bytes, nothing else) at `t_ns`, then

@@ -426,6 +426,8 @@ fn record_real_time(cfg: RuntimeConfig, args: &RecordArgs, script: Script) -> an
     Ok(refused)
 }
 
+/// Prints what was recorded, from the file's summary section (its statistics and index:
+/// no message is read back, whatever the length of the dive).
 fn summarize(args: &RecordArgs, wall_s: f64, refused_arm: bool) -> anyhow::Result<ExitCode> {
     let session = rov_session::open(&args.out)
         .with_context(|| format!("reading back {}", args.out.display()))?;
@@ -437,7 +439,7 @@ fn summarize(args: &RecordArgs, wall_s: f64, refused_arm: bool) -> anyhow::Resul
     if refused_arm {
         eprintln!("warning: the vehicle did not arm within {ARM_RETRY_S} s of the script's `arm`");
     }
-    for w in &session.warnings {
+    for w in session.warnings() {
         eprintln!("warning: {w}");
     }
     if args.json {
