@@ -17,15 +17,6 @@ pub enum SessionError {
         #[source]
         source: std::io::Error,
     },
-    /// The MCAP writer failed.
-    #[error("{path}: MCAP write failed: {source}")]
-    Mcap {
-        /// The file.
-        path: PathBuf,
-        /// The writer's error.
-        #[source]
-        source: mcap::McapError,
-    },
     /// A message is larger than the cap; nothing was written.
     #[error(
         "message on {topic} is larger than the {max} byte cap (at least {len} bytes); not written"

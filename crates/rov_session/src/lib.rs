@@ -37,7 +37,8 @@
 //! Files are standard MCAP (JSON messages with `jsonschema` schemas, protobuf messages
 //! with Foxglove's schemas), readable by Foxglove, PlotJuggler, the `mcap` CLI and the
 //! official Python reader. Reading parses with bounds-checked code of its own
-//! ([`wire`](mod@wire)); writing uses the `mcap` crate.
+//! ([`wire`](mod@wire)); writing streams records of its own too, so its memory does not
+//! grow with the recording ([`mcap_file`](mod@mcap_file)).
 #![cfg_attr(
     not(test),
     deny(
@@ -50,10 +51,12 @@
 
 mod chunk;
 pub mod csv;
+mod encode;
 pub mod error;
 pub mod foxglove;
 mod index;
 pub mod io;
+mod mcap_file;
 mod message;
 mod open;
 pub mod playback;

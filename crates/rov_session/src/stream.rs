@@ -163,6 +163,23 @@ pub(crate) fn decode_chunk_at(
     {
         return Err(format!("message on undefined channel {}", l.channel_id));
     }
+    // What the index says about a chunk decides which reads open it and when: a chunk
+    // whose messages fall outside its indexed time range, or on a channel its index does
+    // not list, would be returned out of order or missed, so it is damage.
+    if let Some((a, b)) = d.span_ns
+        && (a < c.start_ns || b > c.end_ns)
+    {
+        return Err(format!(
+            "the chunk's messages span {a}..{b} ns but its index says {}..{} ns",
+            c.start_ns, c.end_ns
+        ));
+    }
+    let listed = inner.index.channels_of(c);
+    if let Some((id, _)) = d.per_channel.iter().find(|(id, _)| !listed.contains(id)) {
+        return Err(format!(
+            "the chunk holds messages on channel {id}, which its index does not list"
+        ));
+    }
     if time_order {
         d.sort_by_time();
     }

@@ -2,9 +2,10 @@
 //!
 //! # Layout
 //!
-//! An MCAP file (spec version 0) with small **chunks**, zstd-compressed by default. Each
-//! chunk carries a CRC of its content, so the reader detects a damaged chunk instead of
-//! returning altered values. Schemas and channels are registered lazily, on the first
+//! An MCAP file (spec version 0) with small **chunks**, zstd-compressed by default, written
+//! by [`crate::mcap_file`] (memory flat however long the recording). Each chunk carries a
+//! CRC of its content, so the reader detects a damaged chunk instead of returning altered
+//! values. Schemas and channels are registered lazily, on the first
 //! message of a topic. At creation the writer stores the configuration as the attachment
 //! `config.toml`, a metadata record `session` (vehicle, software version, start time) and
 //! one `/session/info` message.
@@ -55,13 +56,12 @@
 
 use std::collections::BTreeMap;
 use std::fs::File;
-use std::io::{BufWriter, Write};
+use std::io::Write;
 use std::path::{Path, PathBuf};
-
-use mcap::records::MessageHeader;
 
 use crate::error::{Result, SessionError, io_err};
 use crate::foxglove::{self, Track, VehiclePose};
+use crate::mcap_file::{McapFile, McapOptions};
 use crate::record::{Direction, NavRecord, Record, SessionInfo, Topic, TruthRecord};
 
 /// Nanoseconds per millisecond.
@@ -117,7 +117,7 @@ pub struct WriteSummary {
 /// Records a session. See the module docs for the layout and the crash-safety guarantee.
 pub struct SessionWriter {
     path: PathBuf,
-    mcap: mcap::Writer<BufWriter<File>>,
+    mcap: McapFile,
     sync_handle: File,
     opts: WriterOptions,
     channels: [Option<u16>; Topic::ALL.len()],
@@ -184,28 +184,18 @@ impl SessionWriter {
         opts: WriterOptions,
     ) -> Result<Self> {
         let path = path.as_ref().to_path_buf();
-        let file = File::create(&path).map_err(io_err(&path, "create"))?;
-        let sync_handle = file
-            .try_clone()
+        let mcap = McapFile::create(
+            &path,
+            McapOptions {
+                compress: opts.compress,
+                chunk_size: 1 << 20,
+                library: format!("topside rov_session {}", env!("CARGO_PKG_VERSION")),
+            },
+        )
+        .map_err(io_err(&path, "create"))?;
+        let sync_handle = mcap
+            .file_handle()
             .map_err(io_err(&path, "open a second handle to"))?;
-        let options = mcap::WriteOptions::new()
-            .compression(opts.compress.then_some(mcap::Compression::Zstd))
-            .compression_threads(0)
-            .chunk_size(Some(1 << 20))
-            .use_chunks(true)
-            // Build each chunk in memory and write it in one go: a kill never leaves a
-            // placeholder chunk header behind.
-            .disable_seeking(true)
-            .library(format!(
-                "topside rov_session {} (mcap-rs)",
-                env!("CARGO_PKG_VERSION")
-            ));
-        let mcap = options
-            .create(BufWriter::with_capacity(256 * 1024, file))
-            .map_err(|source| SessionError::Mcap {
-                path: path.clone(),
-                source,
-            })?;
         let mut w = Self {
             path,
             mcap,
@@ -227,37 +217,40 @@ impl SessionWriter {
         } else {
             0
         };
-        let attachment = mcap::Attachment {
-            log_time: t_ns,
-            create_time: started_ns,
-            name: "config.toml".into(),
-            media_type: "application/toml".into(),
-            data: std::borrow::Cow::Borrowed(info.config_toml.as_bytes()),
-        };
-        w.mcap.attach(&attachment).map_err(w.mcap_err())?;
-        let metadata = mcap::records::Metadata {
-            name: "session".into(),
-            metadata: BTreeMap::from([
-                ("vehicle".to_string(), info.vehicle.clone()),
-                (
-                    "software_version".to_string(),
-                    info.software_version.clone(),
-                ),
-                (
-                    "started_unix_s".to_string(),
-                    format!("{}", info.started_unix_s),
-                ),
-            ]),
-        };
-        w.mcap.write_metadata(&metadata).map_err(w.mcap_err())?;
+        let metadata = BTreeMap::from([
+            ("vehicle".to_string(), info.vehicle.clone()),
+            (
+                "software_version".to_string(),
+                info.software_version.clone(),
+            ),
+            (
+                "started_unix_s".to_string(),
+                format!("{}", info.started_unix_s),
+            ),
+        ]);
+        let res = w
+            .mcap
+            .attach(
+                t_ns,
+                started_ns,
+                "config.toml",
+                "application/toml",
+                info.config_toml.as_bytes(),
+            )
+            .and_then(|()| w.mcap.write_metadata("session", &metadata));
+        res.map_err(io_err(&w.path, "write"))?;
         w.write(t_ns, info)?;
         w.sync()?;
         Ok(w)
     }
 
-    fn mcap_err(&self) -> impl FnOnce(mcap::McapError) -> SessionError + use<> {
+    fn io_err(&self, action: &'static str) -> impl FnOnce(std::io::Error) -> SessionError + use<> {
         let path = self.path.clone();
-        move |source| SessionError::Mcap { path, source }
+        move |source| SessionError::Io {
+            path,
+            action,
+            source,
+        }
     }
 
     /// The file being written.
@@ -285,12 +278,12 @@ impl SessionWriter {
         } else {
             self.mcap
                 .add_schema(&schema.name, &schema.encoding, &schema.data)
-                .map_err(self.mcap_err())?
+                .map_err(self.io_err("write"))?
         };
         let id = self
             .mcap
             .add_channel(schema_id, topic.name(), topic.encoding(), &BTreeMap::new())
-            .map_err(self.mcap_err())?;
+            .map_err(self.io_err("write"))?;
         if let Some(slot) = self.channels.get_mut(topic.index()) {
             *slot = Some(id);
         }
@@ -300,19 +293,10 @@ impl SessionWriter {
     fn put(&mut self, topic: Topic, t_ns: u64, from_scratch: Option<&[u8]>) -> Result<()> {
         let channel_id = self.channel(topic)?;
         let sequence = self.sequences.get(topic.index()).copied().unwrap_or(0);
-        let header = MessageHeader {
-            channel_id,
-            sequence,
-            log_time: t_ns,
-            publish_time: t_ns,
-        };
         let data = from_scratch.unwrap_or(&self.scratch);
         self.mcap
-            .write_to_known_channel(&header, data)
-            .map_err(|source| SessionError::Mcap {
-                path: self.path.clone(),
-                source,
-            })?;
+            .write_message(channel_id, sequence, t_ns, t_ns, data)
+            .map_err(io_err(&self.path, "write"))?;
         if let Some(s) = self.sequences.get_mut(topic.index()) {
             *s = s.wrapping_add(1);
         }
@@ -455,7 +439,7 @@ impl SessionWriter {
     /// Closes the current chunk and hands everything written so far to the OS. After this
     /// returns, a SIGKILL loses nothing written before the call.
     pub fn flush(&mut self) -> Result<()> {
-        self.mcap.flush().map_err(self.mcap_err())?;
+        self.mcap.flush().map_err(self.io_err("write"))?;
         self.unsynced = true;
         Ok(())
     }
@@ -480,38 +464,35 @@ impl SessionWriter {
     /// Writes the summary section (statistics, chunk and message indexes) and the footer,
     /// and syncs the file.
     pub fn finish(mut self) -> Result<WriteSummary> {
-        let summary = self.mcap.finish().map_err(self.mcap_err())?;
-        let Self {
-            path,
-            mcap,
-            sync_handle,
-            messages,
-            ..
-        } = self;
-        let buf = mcap.into_inner();
-        let file = buf.into_inner().map_err(|e| SessionError::Io {
-            path: path.clone(),
-            action: "flush",
-            source: e.into_error(),
-        })?;
-        drop(file);
-        sync_handle.sync_all().map_err(io_err(&path, "fsync"))?;
+        let stats = self
+            .mcap
+            .finish()
+            .map_err(self.io_err("write the summary of"))?;
+        self.sync_handle
+            .sync_all()
+            .map_err(io_err(&self.path, "fsync"))?;
         let mut per_topic = BTreeMap::new();
-        let (chunks, counts) = match &summary.stats {
-            Some(s) => (s.chunk_count, s.channel_message_counts.clone()),
-            None => (0, BTreeMap::new()),
-        };
-        for (id, n) in counts {
-            if let Some(ch) = summary.channels.get(&id) {
-                *per_topic.entry(ch.topic.clone()).or_insert(0) += n;
+        for (id, n) in &stats.channel_counts {
+            if let Some(topic) = self.mcap.topic(*id) {
+                *per_topic.entry(topic.to_string()).or_insert(0) += n;
             }
         }
         Ok(WriteSummary {
-            path,
-            messages,
+            path: self.path.clone(),
+            messages: self.messages,
             per_topic,
-            chunks,
+            chunks: stats.chunks,
         })
+    }
+}
+
+impl Drop for SessionWriter {
+    /// A writer dropped without [`SessionWriter::finish`] still writes the summary, best
+    /// effort, without syncing.
+    fn drop(&mut self) {
+        if !self.mcap.is_finished() {
+            let _ = self.mcap.finish();
+        }
     }
 }
 
