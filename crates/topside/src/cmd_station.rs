@@ -7,8 +7,9 @@
 //!   screenshot of itself (eframe viewport screenshot), saves it as PNG and closes; the
 //!   exit status says whether the PNG was written (used by the Xvfb test).
 //!
-//! The control settings come from `config/station.toml` when it exists in the working
-//! directory (the built-in defaults otherwise). Every session is recorded from the
+//! The control settings come from `--config PATH`, else the user's `station.toml` in the
+//! platform's configuration directory, else the built-in defaults (see
+//! [`crate::config_file`]). Every session is recorded from the
 //! moment the station starts, to `./recordings/session-<unix time>.mcap` (`--recordings DIR` elsewhere; REC
 //! stops and restarts it; `--no-record` starts without recording).
 
@@ -16,29 +17,24 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 use std::sync::atomic::Ordering;
 
-use anyhow::Context as _;
-use rov_control::ControlConfig;
 use rov_gui::{Backend as _, RealBackend, ScreenshotRequest, StationApp, Tab};
 use rov_station::runtime::{Connection, Runtime, RuntimeConfig};
 
-/// The station's configuration file, relative to the working directory.
-const CONFIG_PATH: &str = "config/station.toml";
-
-/// The runtime settings: `config/station.toml` when it exists (defaults otherwise), on
-/// the given port or the simulator. Shared with `topside record`.
-pub fn config(port: Option<String>) -> anyhow::Result<RuntimeConfig> {
-    let (control, text) = match std::fs::read_to_string(CONFIG_PATH) {
-        Ok(text) => (
-            ControlConfig::from_toml_str(&text, CONFIG_PATH)
-                .with_context(|| format!("reading {CONFIG_PATH}"))?,
-            text,
-        ),
-        Err(_) => (ControlConfig::default(), String::new()),
-    };
+/// The runtime settings (see [`crate::config_file`]), on the given port or the
+/// simulator. Shared with `topside record`.
+pub fn config(
+    port: Option<String>,
+    config: Option<&std::path::Path>,
+) -> anyhow::Result<RuntimeConfig> {
+    let user = crate::config_file::user_config_path();
+    let loaded = crate::config_file::load(config, user.as_deref())?;
+    if let Some(p) = &loaded.path {
+        eprintln!("settings from {}", p.display());
+    }
     Ok(RuntimeConfig {
         connection: port.map_or(Connection::Sim, Connection::Serial),
-        control,
-        config_toml: text,
+        control: loaded.control,
+        config_toml: loaded.text,
         ..RuntimeConfig::default()
     })
 }
@@ -46,10 +42,11 @@ pub fn config(port: Option<String>) -> anyhow::Result<RuntimeConfig> {
 /// Opens the station window; see the module docs.
 pub fn run_station(
     port: Option<String>,
+    config_path: Option<&std::path::Path>,
     record_to: Option<PathBuf>,
     screenshot: Option<(PathBuf, f64)>,
 ) -> anyhow::Result<ExitCode> {
-    let cfg = config(port)?;
+    let cfg = config(port, config_path)?;
     let recordings = record_to
         .clone()
         .unwrap_or_else(|| PathBuf::from("recordings"));
