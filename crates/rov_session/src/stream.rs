@@ -3,9 +3,9 @@
 //!
 //! * Only chunks that hold a wanted channel and overlap the wanted time range are read
 //!   (the index says which), each decompressed once when the stream reaches it.
-//! * Memory is a few chunks: a stream of more than two chunks decodes ahead on a worker
-//!   thread through a bounded queue ([`PREFETCH`] chunks), and chunks whose time ranges
-//!   overlap are merged (equal times keep file order).
+//! * Memory is a few chunks: a stream of more than a megabyte of chunks decodes ahead on a
+//!   worker thread through a bounded queue ([`PREFETCH`] chunks), and chunks whose time
+//!   ranges overlap are merged (equal times keep file order).
 //! * A chunk that turns out bad (CRC, decompression, framing, a message on an undefined
 //!   channel) ends the stream after the messages of the good chunks already open;
 //!   [`Messages::damage`] says where, and the session remembers it
@@ -26,6 +26,9 @@ use crate::session::Inner;
 
 /// Chunks decoded ahead of the reader.
 pub const PREFETCH: usize = 4;
+
+/// Reads of fewer compressed bytes than this decode on the reader's thread.
+const WORKER_MIN_BYTES: u64 = 1 << 20;
 
 /// What to read.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -215,7 +218,13 @@ impl Messages {
             })
             .filter(|_| !no_topics && opts.start_ns <= opts.end_ns)
             .collect();
-        let supply = if plan.len() > 2 {
+        // A worker thread pays off only for reads of more than a few chunks' worth.
+        let planned_bytes: u64 = plan
+            .iter()
+            .filter_map(|&i| ix.chunks.get(i as usize))
+            .map(|c| c.len)
+            .sum();
+        let supply = if plan.len() > 2 && planned_bytes > WORKER_MIN_BYTES {
             spawn_worker(
                 Arc::clone(&inner),
                 plan.clone(),
