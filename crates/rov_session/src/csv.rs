@@ -238,8 +238,9 @@ struct Rows<'a> {
 
 /// Where rows go: the export's CSV text, or a series in memory.
 trait RowSink {
-    /// The header line (measurement columns, then the extra columns), before any row.
-    fn header(&mut self, header: &str) -> Result<()>;
+    /// The header line (measurement columns, then the extra columns) and which optional
+    /// measurement columns it has, before any row.
+    fn header(&mut self, header: &str, present: &[bool; 8]) -> Result<()>;
     /// One row: its time (ns), the measurement cells, the extra cells (each led by a comma).
     fn row(&mut self, t_ns: u64, row: &MeasurementRow, extras: &str) -> Result<()>;
 }
@@ -595,7 +596,14 @@ fn build_rows(session: &Session, with_extras: bool, sink: &mut dyn RowSink) -> R
         header.push_str(c);
     }
     header.push('\n');
-    rows.sink.header(&header)?;
+    let mut present = [false; 8];
+    for (i, p) in present.iter_mut().enumerate() {
+        *p = match i {
+            0..=2 => rates.get(i).copied().unwrap_or(false),
+            _ => has_truth,
+        };
+    }
+    rows.sink.header(&header, &present)?;
     let mut read = session.read(ReadOptions::topics(&topics));
     for m in read.by_ref() {
         rows.message(&m)?;
@@ -637,7 +645,7 @@ struct SeriesSink {
 }
 
 impl RowSink for SeriesSink {
-    fn header(&mut self, _: &str) -> Result<()> {
+    fn header(&mut self, _: &str, _: &[bool; 8]) -> Result<()> {
         Ok(())
     }
     fn row(&mut self, t_ns: u64, row: &MeasurementRow, _: &str) -> Result<()> {
@@ -674,6 +682,8 @@ pub fn measurements(session: &Session) -> Result<(MeasurementSeries, Vec<u64>, V
 struct TextSink<'a> {
     out: &'a mut dyn std::io::Write,
     line: String,
+    /// The optional columns of the header.
+    present: [bool; 8],
 }
 
 impl TextSink<'_> {
@@ -687,13 +697,14 @@ impl TextSink<'_> {
 }
 
 impl RowSink for TextSink<'_> {
-    fn header(&mut self, header: &str) -> Result<()> {
+    fn header(&mut self, header: &str, present: &[bool; 8]) -> Result<()> {
+        self.present = *present;
         self.write(header.as_bytes())
     }
     fn row(&mut self, _: u64, row: &MeasurementRow, extras: &str) -> Result<()> {
         let mut line = std::mem::take(&mut self.line);
         line.clear();
-        push_row(&mut line, row);
+        row.push_csv(&mut line, &self.present);
         line.push_str(extras);
         line.push('\n');
         let r = self.write(line.as_bytes());
@@ -709,6 +720,7 @@ pub fn export_csv_to(session: &Session, out: &mut dyn std::io::Write) -> Result<
     let mut sink = TextSink {
         out,
         line: String::with_capacity(1024),
+        present: [false; 8],
     };
     let done = build_rows(session, true, &mut sink)?;
     Ok(CsvSummary {
@@ -717,30 +729,6 @@ pub fn export_csv_to(session: &Session, out: &mut dyn std::io::Write) -> Result<
         warnings: done.warnings,
         read: done.read,
     })
-}
-
-/// Appends the measurement cells of a row (the columns the row's series has).
-fn push_row(out: &mut String, r: &MeasurementRow) {
-    let req = [
-        r.time_s,
-        r.port_pct,
-        r.starboard_pct,
-        r.vertical_pct,
-        r.depth_m,
-        r.heading_deg,
-        r.pitch_deg,
-        r.roll_deg,
-    ];
-    for (i, x) in req.iter().enumerate() {
-        if i > 0 {
-            out.push(',');
-        }
-        push_f64(out, *x);
-    }
-    for v in r.optional.iter().flatten() {
-        out.push(',');
-        push_f64(out, *v);
-    }
 }
 
 /// [`export_csv_to`] into a string (short sessions and tests).

@@ -6,7 +6,6 @@
 mod common;
 
 use std::collections::BTreeMap;
-use std::process::Command;
 
 use common::{info, record};
 use rov_session::foxglove::{VehiclePose, decode_video, encode, video_message};
@@ -52,19 +51,7 @@ with open(sys.argv[1], "rb") as f:
             out["video"].append([message.log_time, proto.format, proto.frame_id, list(proto.data)])
 print(json.dumps(out))
 "#;
-    let out = Command::new("python3")
-        .args(["-c", script])
-        .arg(path)
-        .output()
-        .expect("run python3");
-    assert!(
-        out.status.success(),
-        "the Python mcap reader with mcap-protobuf-support failed (scripts/setup.sh installs \
-         both) on {}:\n{}",
-        path.display(),
-        String::from_utf8_lossy(&out.stderr)
-    );
-    serde_json::from_slice(&out.stdout).expect("python output is JSON")
+    common::python_json(script, path)
 }
 
 /// The official reader decodes the transforms with the schema in the file; the vehicle

@@ -63,6 +63,36 @@ pub struct MeasurementRow {
     pub optional: [Option<f64>; 8],
 }
 
+impl MeasurementRow {
+    /// Appends the row's cells (the required columns, then the optional ones `present`
+    /// marks, NaN where absent) as CSV, without a line end; numbers as
+    /// [`crate::number`] writes them.
+    pub fn push_csv(&self, out: &mut String, present: &[bool; 8]) {
+        let req = [
+            self.time_s,
+            self.port_pct,
+            self.starboard_pct,
+            self.vertical_pct,
+            self.depth_m,
+            self.heading_deg,
+            self.pitch_deg,
+            self.roll_deg,
+        ];
+        for (i, x) in req.iter().enumerate() {
+            if i > 0 {
+                out.push(',');
+            }
+            push_num(out, *x);
+        }
+        for (value, present) in self.optional.iter().zip(present) {
+            if *present {
+                out.push(',');
+                push_num(out, value.unwrap_or(f64::NAN));
+            }
+        }
+    }
+}
+
 /// Index of each optional channel in [`MeasurementRow::optional`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[repr(usize)]
@@ -326,30 +356,7 @@ impl MeasurementSeries {
         out.push_str(&header.join(","));
         out.push('\n');
         for row in &self.rows {
-            let req = [
-                row.time_s,
-                row.port_pct,
-                row.starboard_pct,
-                row.vertical_pct,
-                row.depth_m,
-                row.heading_deg,
-                row.pitch_deg,
-                row.roll_deg,
-            ];
-            let mut first = true;
-            for x in req {
-                if !first {
-                    out.push(',');
-                }
-                first = false;
-                push_num(&mut out, x);
-            }
-            for (value, present) in row.optional.iter().zip(self.present) {
-                if present {
-                    out.push(',');
-                    push_num(&mut out, value.unwrap_or(f64::NAN));
-                }
-            }
+            row.push_csv(&mut out, &self.present);
             out.push('\n');
         }
         out
