@@ -35,8 +35,11 @@ if [ "${#missing[@]}" -gt 0 ]; then
   DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq "${missing[@]}" >/dev/null
 fi
 
-# Python's official `mcap` reader proves our session files open in other tools.
-if ! python3 -c "import mcap" 2>/dev/null; then
-  echo "setup: installing the Python mcap reader"
-  python3 -m pip install --quiet --disable-pip-version-check "mcap>=1.1" || echo "setup: warning: pip could not install mcap"
+# Python's official `mcap` reader proves our session files open in other tools;
+# mcap-protobuf-support (with `protobuf`) decodes the Foxglove schemas (pose, video) with
+# the descriptors stored in the files.
+if ! python3 -c "import mcap, mcap_protobuf" 2>/dev/null; then
+  echo "setup: installing the Python mcap reader and its protobuf decoder"
+  python3 -m pip install --quiet --disable-pip-version-check "mcap>=1.1" "mcap-protobuf-support>=0.5" \
+    || echo "setup: warning: pip could not install mcap / mcap-protobuf-support"
 fi

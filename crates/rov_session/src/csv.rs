@@ -1,9 +1,11 @@
 //! Measurement CSV export and import.
 //!
-//! # Export ([`export_csv`])
+//! # Export ([`export_csv_to`], [`export_csv`])
 //!
 //! The measurement CSV format of `rov_types::measurement`, then one extra column per field
-//! of every decoded channel.
+//! of every decoded channel. The export streams: one read of the session in time order,
+//! each row written as soon as its command is known, so memory does not grow with the
+//! length of the session.
 //!
 //! * **Rows** are the `/telemetry/nav` messages. `time_s` is the message time in seconds
 //!   since the session's first message (any topic; `/session/info` for a recording), as
@@ -15,16 +17,21 @@
 //!   t_{k+1} is t_k plus the previous interval. Before the first command, thrust is 0 %.
 //!   Commands outside −100..100 % are clamped and non-finite ones become 0, with a warning.
 //! * **Optional columns**: `yaw_rate_dps`, `pitch_rate_dps`, `roll_rate_dps` from nav when
-//!   any nav message has them; `surge_mps`, `sway_mps`, `heave_mps`, `north_m`, `east_m`
-//!   from `/truth/state` when the session has it (the last truth sample at or before t_k).
+//!   the first [`DISCOVERY_SAMPLES`] nav messages have them; `surge_mps`, `sway_mps`,
+//!   `heave_mps`, `north_m`, `east_m` from `/truth/state` when the session has it (the last
+//!   truth sample at or before t_k).
 //! * **Extra columns** `topic.field` (topic without its leading `/`, `/` → `_`, e.g.
 //!   `telemetry_status.tether_v`) for every JSON topic except `/session/info`, known or
-//!   not (unknown topics: their top-level fields), each the last value at or before t_k
-//!   (empty before the first message). Note that `command_thrust.*` is therefore the
-//!   command known at t_k, while the required thrust columns follow the timing rule.
-//!   Numbers as in the measurement format, flags as 1/0, lists joined with `|`, text with
-//!   commas and line breaks replaced. `MeasurementSeries::parse_csv` ignores these columns
-//!   (one warning per column); PlotJuggler and spreadsheets plot them.
+//!   not (unknown topics: the top-level fields of their first [`DISCOVERY_SAMPLES`]
+//!   messages; a field first seen later is left out, with a warning), each the last value
+//!   at or before t_k (empty before the first message). Note that `command_thrust.*` is
+//!   therefore the command known at t_k, while the required thrust columns follow the
+//!   timing rule. The raw frames and the Foxglove topics (pose, track, video) are not
+//!   columns.
+//! * **Numbers** in the shortest form that reads back to the same value
+//!   (`rov_types::number`), flags as 1/0, lists joined with `|`, text with commas and line
+//!   breaks replaced. `MeasurementSeries::parse_csv` ignores the extra columns (one
+//!   warning per column); PlotJuggler and spreadsheets plot them.
 //!
 //! # Import ([`import_csv`])
 //!
@@ -34,18 +41,25 @@
 //! the velocity or position columns (NaN in the fields it does not give). Exporting the
 //! result gives back the measurement columns (times to the nanosecond).
 
-use std::fmt::Write as _;
 use std::path::Path;
 
-use rov_types::measurement::{MeasurementRow, MeasurementSeries, OptionalChannel};
+use rov_types::measurement::{
+    MeasurementRow, MeasurementSeries, OPTIONAL_COLUMNS, OptionalChannel, REQUIRED_COLUMNS,
+};
+use rov_types::number::{push_f64, push_u64};
 
 use crate::error::{Result, SessionError};
-use crate::reader::Session;
+use crate::message::Message;
 use crate::record::{
-    AutopilotRecord, Cell, EventRecord, JSON_ENCODING, LinkRecord, NavRecord, ObserverRecord,
-    PilotRecord, Record, SessionInfo, StatusRecord, ThrustRecord, Topic, TruthRecord,
+    AutopilotRecord, Cell, EventRecord, LinkRecord, NavRecord, ObserverRecord, PilotRecord, Record,
+    SessionInfo, StatusRecord, ThrustRecord, Topic, TruthRecord,
 };
+use crate::session::Session;
+use crate::stream::{ReadOptions, ReadReport};
 use crate::writer::{SessionWriter, WriteSummary, WriterOptions};
+
+/// Messages of a topic read before the export fixes its columns.
+pub const DISCOVERY_SAMPLES: usize = 1000;
 
 /// The result of [`export_csv`].
 #[derive(Debug, Clone, PartialEq)]
@@ -60,275 +74,118 @@ pub struct CsvExport {
     pub warnings: Vec<String>,
 }
 
+/// What [`export_csv_to`] wrote.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CsvSummary {
+    /// Rows written.
+    pub rows: usize,
+    /// Extra (`topic.field`) columns written.
+    pub extra_columns: Vec<String>,
+    /// What was merged, sorted, clamped or left out, and what the read found.
+    pub warnings: Vec<String>,
+    /// What the read of the session found (damage, messages out of order, gaps).
+    pub read: ReadReport,
+}
+
 type NavGetter = fn(&NavRecord) -> Option<f64>;
 type TruthGetter = fn(&TruthRecord) -> f64;
 
-/// The measurement rows of a session (see the module docs for the timing rule), with
-/// warnings. This is the export without the extra columns, and the re-simulation input.
-pub fn measurements(session: &Session) -> Result<(MeasurementSeries, Vec<u64>, Vec<String>)> {
-    let mut warnings = Vec::new();
-    let navs = session.records::<NavRecord>()?;
-    if navs.is_empty() {
-        return Err(SessionError::Unusable(format!(
-            "{}: no {} messages, so no measurement rows",
-            session.source().display(),
-            Topic::Nav.name()
-        )));
-    }
-    let t0 = session.start_ns().unwrap_or(0);
-    // Merge duplicates (time order is already stable: the later message wins).
-    let mut rows_nav: Vec<(u64, NavRecord)> = Vec::with_capacity(navs.len());
-    let mut merged = 0usize;
-    for (t, nav) in navs {
-        match rows_nav.last_mut() {
-            Some(last) if last.0 == t => {
-                *last = (t, nav);
-                merged += 1;
-            }
-            _ => rows_nav.push((t, nav)),
-        }
-    }
-    if merged > 0 {
-        warnings.push(format!(
-            "{merged} {} messages had the same time as the one before; the later one kept",
-            Topic::Nav.name()
-        ));
-    }
-    let thrusts = records_or_warn::<ThrustRecord>(session, &mut warnings)?;
-    let truths = records_or_warn::<TruthRecord>(session, &mut warnings)?;
-    let mut series = MeasurementSeries::default();
-    let rate_cols: [(OptionalChannel, NavGetter); 3] = [
-        (OptionalChannel::YawRateDps, |n: &NavRecord| n.yaw_rate_dps),
-        (OptionalChannel::PitchRateDps, |n: &NavRecord| {
-            n.pitch_rate_dps
-        }),
-        (OptionalChannel::RollRateDps, |n: &NavRecord| {
-            n.roll_rate_dps
-        }),
-    ];
-    for (ch, get) in rate_cols {
-        if rows_nav.iter().any(|(_, n)| get(n).is_some()) {
-            set_present(&mut series, ch);
-        }
-    }
-    let truth_cols: [(OptionalChannel, TruthGetter); 5] = [
-        (OptionalChannel::SurgeMps, |t| t.u_mps),
-        (OptionalChannel::SwayMps, |t| t.v_mps),
-        (OptionalChannel::HeaveMps, |t| t.w_mps),
-        (OptionalChannel::NorthM, |t| t.north_m),
-        (OptionalChannel::EastM, |t| t.east_m),
-    ];
-    if !truths.is_empty() {
-        for (ch, _) in truth_cols {
-            set_present(&mut series, ch);
-        }
-    }
-    let mut cmd_i = 0usize;
-    let mut truth_i = 0usize;
-    let mut current: Option<&ThrustRecord> = None;
-    let mut before_first = 0usize;
-    let mut clamped = 0usize;
-    let mut times = Vec::with_capacity(rows_nav.len());
-    let mut prev_time_s: Option<f64> = None;
-    for (k, (t, nav)) in rows_nav.iter().enumerate() {
-        let t_next = match (
-            rows_nav.get(k + 1),
-            k.checked_sub(1).and_then(|p| rows_nav.get(p)),
-        ) {
-            (Some((tn, _)), _) => *tn,
-            (None, Some((tp, _))) => t.saturating_add(t.saturating_sub(*tp)),
-            (None, None) => t.saturating_add(1),
-        };
-        while let Some((tc, c)) = thrusts.get(cmd_i) {
-            if *tc < t_next {
-                current = Some(c);
-                cmd_i += 1;
-            } else {
-                break;
-            }
-        }
-        let (port, stbd, vert) = match current {
-            Some(c) => (c.port_pct, c.starboard_pct, c.vertical_pct),
-            None => {
-                before_first += 1;
-                (0.0, 0.0, 0.0)
-            }
-        };
-        let mut fix = |x: f64| {
-            let y = if x.is_finite() {
-                x.clamp(-100.0, 100.0)
-            } else {
-                0.0
-            };
-            if y.to_bits() != x.to_bits() {
-                clamped += 1;
-            }
-            y
-        };
-        let time_s = t.saturating_sub(t0) as f64 / 1e9;
-        if prev_time_s.is_some_and(|p| time_s <= p) {
-            warnings.push(format!(
-                "row at t = {time_s} s does not advance time in seconds; dropped"
-            ));
-            continue;
-        }
-        prev_time_s = Some(time_s);
-        let mut row = MeasurementRow {
-            time_s,
-            port_pct: fix(port),
-            starboard_pct: fix(stbd),
-            vertical_pct: fix(vert),
-            depth_m: nav.depth_m,
-            heading_deg: nav.heading_deg,
-            pitch_deg: nav.pitch_deg,
-            roll_deg: nav.roll_deg,
-            optional: [None; 8],
-        };
-        for (ch, get) in rate_cols {
-            if is_present(&series, ch) {
-                row.set(ch, Some(get(nav).unwrap_or(f64::NAN)));
-            }
-        }
-        if !truths.is_empty() {
-            while truths.get(truth_i + 1).is_some_and(|(tt, _)| tt <= t) {
-                truth_i += 1;
-            }
-            let sample = truths
-                .get(truth_i)
-                .filter(|(tt, _)| tt <= t)
-                .map(|(_, r)| r);
-            for (ch, get) in truth_cols {
-                row.set(ch, Some(sample.map_or(f64::NAN, get)));
-            }
-        }
-        series.rows.push(row);
-        times.push(*t);
-    }
-    if before_first > 0 {
-        warnings.push(format!(
-            "{before_first} rows precede the first {} message; their thrust is 0 %",
-            Topic::Thrust.name()
-        ));
-    }
-    if clamped > 0 {
-        warnings.push(format!(
-            "{clamped} thrust values were outside -100..100 % or not finite; clamped"
-        ));
-    }
-    Ok((series, times, warnings))
-}
+const RATE_COLS: [(OptionalChannel, NavGetter); 3] = [
+    (OptionalChannel::YawRateDps, |n| n.yaw_rate_dps),
+    (OptionalChannel::PitchRateDps, |n| n.pitch_rate_dps),
+    (OptionalChannel::RollRateDps, |n| n.roll_rate_dps),
+];
 
-/// A topic's records; a topic with a foreign encoding counts as absent, with a warning.
-fn records_or_warn<T: Record>(
-    session: &Session,
-    warnings: &mut Vec<String>,
-) -> Result<Vec<(u64, T)>> {
-    match session.records::<T>() {
-        Err(e @ SessionError::WrongEncoding { .. }) => {
-            warnings.push(format!("{e}; treated as absent"));
-            Ok(Vec::new())
-        }
-        other => other,
-    }
-}
+const TRUTH_COLS: [(OptionalChannel, TruthGetter); 5] = [
+    (OptionalChannel::SurgeMps, |t| t.u_mps),
+    (OptionalChannel::SwayMps, |t| t.v_mps),
+    (OptionalChannel::HeaveMps, |t| t.w_mps),
+    (OptionalChannel::NorthM, |t| t.north_m),
+    (OptionalChannel::EastM, |t| t.east_m),
+];
 
-fn set_present(series: &mut MeasurementSeries, ch: OptionalChannel) {
-    if let Some(p) = series.present.get_mut(ch as usize) {
-        *p = true;
-    }
-}
-
-fn is_present(series: &MeasurementSeries, ch: OptionalChannel) -> bool {
-    series.present.get(ch as usize).copied().unwrap_or(false)
-}
-
-/// One topic's extra columns: names and (time, cells) samples in time order.
+/// One topic's extra columns and its latest cells.
 struct Extra {
+    topic: String,
+    known: Option<Topic>,
+    /// The fields (JSON keys), and their column names.
+    fields: Vec<String>,
     columns: Vec<String>,
-    samples: Vec<(u64, Vec<Cell>)>,
+    latest: Option<Vec<Cell>>,
+    bad: usize,
+    late_fields: Vec<String>,
 }
 
-fn typed<T: Record>(session: &Session, prefix: &str) -> Result<Extra> {
-    let samples = session
-        .records::<T>()?
-        .into_iter()
-        .map(|(t, r)| (t, r.cells()))
-        .collect();
-    Ok(Extra {
-        columns: T::FIELDS.iter().map(|f| format!("{prefix}.{f}")).collect(),
-        samples,
-    })
-}
-
-fn untyped(session: &Session, topic: &str, prefix: &str, warnings: &mut Vec<String>) -> Extra {
-    let mut columns: Vec<String> = Vec::new();
-    let mut raw: Vec<(u64, Vec<(usize, Cell)>)> = Vec::new();
-    let mut bad = 0usize;
-    for m in session.topic_messages(topic) {
-        let Ok(serde_json::Value::Object(obj)) =
-            serde_json::from_slice::<serde_json::Value>(m.data)
-        else {
-            bad += 1;
-            continue;
-        };
-        let mut cells = Vec::with_capacity(obj.len());
-        for (k, v) in obj {
-            let idx = match columns.iter().position(|c| *c == k) {
-                Some(i) => i,
-                None => {
-                    columns.push(k);
-                    columns.len() - 1
+impl Extra {
+    fn update(&mut self, m: &Message) -> Result<()> {
+        let cells = match self.known {
+            Some(Topic::Nav) => m.decode::<NavRecord>()?.cells(),
+            Some(Topic::Status) => m.decode::<StatusRecord>()?.cells(),
+            Some(Topic::Thrust) => m.decode::<ThrustRecord>()?.cells(),
+            Some(Topic::Pilot) => m.decode::<PilotRecord>()?.cells(),
+            Some(Topic::Autopilot) => m.decode::<AutopilotRecord>()?.cells(),
+            Some(Topic::Observer) => m.decode::<ObserverRecord>()?.cells(),
+            Some(Topic::Link) => m.decode::<LinkRecord>()?.cells(),
+            Some(Topic::Events) => m.decode::<EventRecord>()?.cells(),
+            Some(Topic::Truth) => m.decode::<TruthRecord>()?.cells(),
+            _ => match untyped_cells(m.data(), &self.fields) {
+                Some((cells, late)) => {
+                    for f in late {
+                        if !self.late_fields.contains(&f) && self.late_fields.len() < 16 {
+                            self.late_fields.push(f);
+                        }
+                    }
+                    cells
                 }
-            };
-            let cell = match v {
-                serde_json::Value::Null => Cell::Missing,
-                serde_json::Value::Bool(b) => Cell::Bool(b),
-                serde_json::Value::Number(n) => n
-                    .as_u64()
-                    .map_or(Cell::Num(n.as_f64().unwrap_or(f64::NAN)), Cell::Int),
-                serde_json::Value::String(s) => Cell::Text(s),
-                other => Cell::Text(other.to_string()),
-            };
-            cells.push((idx, cell));
-        }
-        raw.push((m.t_ns, cells));
+                None => {
+                    self.bad += 1;
+                    return Ok(());
+                }
+            },
+        };
+        self.latest = Some(cells);
+        Ok(())
     }
-    if bad > 0 {
-        warnings.push(format!(
-            "{topic}: {bad} messages are not JSON objects; left out of the CSV"
-        ));
+}
+
+fn json_cell(v: serde_json::Value) -> Cell {
+    match v {
+        serde_json::Value::Null => Cell::Missing,
+        serde_json::Value::Bool(b) => Cell::Bool(b),
+        serde_json::Value::Number(n) => n
+            .as_u64()
+            .map_or(Cell::Num(n.as_f64().unwrap_or(f64::NAN)), Cell::Int),
+        serde_json::Value::String(s) => Cell::Text(s),
+        other => Cell::Text(other.to_string()),
     }
-    let n = columns.len();
-    let samples = raw
-        .into_iter()
-        .map(|(t, cells)| {
-            let mut row = vec![Cell::Missing; n];
-            for (i, c) in cells {
-                if let Some(slot) = row.get_mut(i) {
-                    *slot = c;
+}
+
+/// The cells of an unknown JSON topic's message in `columns` order, and its fields that
+/// have no column; `None` when it is not a JSON object.
+fn untyped_cells(data: &[u8], columns: &[String]) -> Option<(Vec<Cell>, Vec<String>)> {
+    let serde_json::Value::Object(obj) = serde_json::from_slice::<serde_json::Value>(data).ok()?
+    else {
+        return None;
+    };
+    let mut cells = vec![Cell::Missing; columns.len()];
+    let mut late = Vec::new();
+    for (k, v) in obj {
+        match columns.iter().position(|c| *c == k) {
+            Some(i) => {
+                if let Some(slot) = cells.get_mut(i) {
+                    *slot = json_cell(v);
                 }
             }
-            (t, row)
-        })
-        .collect();
-    Extra {
-        columns: columns
-            .into_iter()
-            .map(|c| format!("{prefix}.{c}"))
-            .collect(),
-        samples,
+            None => late.push(k),
+        }
     }
+    Some((cells, late))
 }
 
 fn push_cell(out: &mut String, cell: &Cell) {
     match cell {
-        Cell::Num(x) if x.is_nan() => out.push_str("nan"),
-        Cell::Num(x) => {
-            let _ = write!(out, "{x}");
-        }
-        Cell::Int(i) => {
-            let _ = write!(out, "{i}");
-        }
+        Cell::Num(x) => push_f64(out, *x),
+        Cell::Int(i) => push_u64(out, *i),
         Cell::Bool(b) => out.push(if *b { '1' } else { '0' }),
         Cell::Text(s) => out.extend(s.chars().map(|c| match c {
             ',' => ';',
@@ -344,77 +201,545 @@ pub fn column_prefix(topic: &str) -> String {
     topic.trim_start_matches('/').replace(['/', ','], "_")
 }
 
-/// Exports a session as a measurement CSV plus every decoded channel (see the module
-/// docs). Fails when the session has no `/telemetry/nav` message.
-pub fn export_csv(session: &Session) -> Result<CsvExport> {
-    let (series, times, mut warnings) = measurements(session)?;
-    let mut extras: Vec<Extra> = Vec::new();
-    for t in session.topics() {
-        let prefix = column_prefix(&t.topic);
-        let extra = match t.known {
-            Some(Topic::SessionInfo) | Some(Topic::Pro4Tx) | Some(Topic::Pro4Rx) => continue,
-            Some(Topic::Nav) => typed::<NavRecord>(session, &prefix)?,
-            Some(Topic::Status) => typed::<StatusRecord>(session, &prefix)?,
-            Some(Topic::Thrust) => typed::<ThrustRecord>(session, &prefix)?,
-            Some(Topic::Pilot) => typed::<PilotRecord>(session, &prefix)?,
-            Some(Topic::Autopilot) => typed::<AutopilotRecord>(session, &prefix)?,
-            Some(Topic::Observer) => typed::<ObserverRecord>(session, &prefix)?,
-            Some(Topic::Link) => typed::<LinkRecord>(session, &prefix)?,
-            Some(Topic::Events) => typed::<EventRecord>(session, &prefix)?,
-            Some(Topic::Truth) => typed::<TruthRecord>(session, &prefix)?,
-            None if t.encoding == JSON_ENCODING => {
-                untyped(session, &t.topic, &prefix, &mut warnings)
+/// A row waiting for its command (the next nav message's time).
+struct Pending {
+    t_ns: u64,
+    nav: NavRecord,
+    /// t_k + the previous interval: the end of the last row's hold.
+    guess_next_ns: u64,
+    /// The last command before `guess_next_ns` (used if this is the last row).
+    cmd_before_guess: Option<ThrustRecord>,
+    /// Truth and extra cells at t_k, taken once time has moved past t_k.
+    truth: Option<Option<TruthRecord>>,
+    extras_text: Option<String>,
+}
+
+/// Builds measurement rows from a time-ordered read; see the module docs for the rule.
+struct Rows<'a> {
+    t0: u64,
+    rates: [bool; 3],
+    has_truth: bool,
+    extras: Vec<Extra>,
+    /// The last command sent strictly before the current time, and the latest one.
+    cmd_before: Option<ThrustRecord>,
+    cmd_latest: Option<(u64, ThrustRecord)>,
+    truth_latest: Option<TruthRecord>,
+    cur_t: Option<u64>,
+    pending: Option<Pending>,
+    last_nav_t: Option<u64>,
+    prev_time_s: Option<f64>,
+    merged: usize,
+    before_first: usize,
+    clamped: usize,
+    dropped: Vec<String>,
+    sink: &'a mut dyn RowSink,
+    rows: usize,
+}
+
+/// Where rows go: the export's CSV text, or a series in memory.
+trait RowSink {
+    /// The header line (measurement columns, then the extra columns) and which optional
+    /// measurement columns it has, before any row.
+    fn header(&mut self, header: &str, present: &[bool; 8]) -> Result<()>;
+    /// One row: its time (ns), the measurement cells, the extra cells (each led by a comma).
+    fn row(&mut self, t_ns: u64, row: &MeasurementRow, extras: &str) -> Result<()>;
+}
+
+impl Rows<'_> {
+    /// Time moves to `t`: settle what "before t" and "at or before the pending row" mean.
+    fn advance_to(&mut self, t: u64) {
+        if self.cur_t.is_some_and(|c| t <= c) {
+            return;
+        }
+        if let Some((_, c)) = &self.cmd_latest {
+            self.cmd_before = Some(c.clone());
+        }
+        self.cur_t = Some(t);
+        self.snapshot_pending();
+    }
+
+    /// Takes the pending row's truth and extras (everything at or before t_k has been seen).
+    fn snapshot_pending(&mut self) {
+        let Some(p) = &mut self.pending else {
+            return;
+        };
+        if p.truth.is_none() {
+            p.truth = Some(self.truth_latest.clone());
+        }
+        if p.extras_text.is_none() {
+            let mut s = String::new();
+            for e in &self.extras {
+                for i in 0..e.columns.len() {
+                    s.push(',');
+                    if let Some(cell) = e.latest.as_ref().and_then(|c| c.get(i)) {
+                        push_cell(&mut s, cell);
+                    }
+                }
             }
+            p.extras_text = Some(s);
+        }
+    }
+
+    fn message(&mut self, m: &Message) -> Result<()> {
+        self.advance_to(m.t_ns);
+        match m.known() {
+            Some(Topic::Nav) => {
+                let nav = m.decode::<NavRecord>()?;
+                if let Some(e) = self.extras.iter_mut().find(|e| e.known == Some(Topic::Nav)) {
+                    e.latest = Some(nav.cells());
+                }
+                if let Some(p) = &mut self.pending
+                    && p.t_ns == m.t_ns
+                {
+                    p.nav = nav;
+                    p.extras_text = None;
+                    p.truth = None;
+                    self.merged += 1;
+                    return Ok(());
+                }
+                let cmd = self.cmd_before.clone();
+                self.flush_pending(cmd)?;
+                let guess = match self.last_nav_t {
+                    Some(prev) => m.t_ns.saturating_add(m.t_ns.saturating_sub(prev)),
+                    None => m.t_ns.saturating_add(1),
+                };
+                self.last_nav_t = Some(m.t_ns);
+                let cmd_before_guess = self.cmd_latest.as_ref().map(|(_, c)| c.clone());
+                self.pending = Some(Pending {
+                    t_ns: m.t_ns,
+                    nav,
+                    guess_next_ns: guess,
+                    cmd_before_guess,
+                    truth: None,
+                    extras_text: None,
+                });
+                return Ok(());
+            }
+            Some(Topic::Thrust) => {
+                let c = m.decode::<ThrustRecord>()?;
+                if let Some(p) = &mut self.pending
+                    && m.t_ns < p.guess_next_ns
+                {
+                    p.cmd_before_guess = Some(c.clone());
+                }
+                self.cmd_latest = Some((m.t_ns, c));
+            }
+            Some(Topic::Truth) if self.has_truth => {
+                self.truth_latest = Some(m.decode::<TruthRecord>()?);
+            }
+            _ => {}
+        }
+        if let Some(e) = self.extras.iter_mut().find(|e| e.topic == m.topic()) {
+            e.update(m)?;
+        }
+        Ok(())
+    }
+
+    /// Writes the pending row with its command.
+    fn flush_pending(&mut self, cmd: Option<ThrustRecord>) -> Result<()> {
+        self.snapshot_pending();
+        let Some(p) = self.pending.take() else {
+            return Ok(());
+        };
+        let (port, stbd, vert) = match &cmd {
+            Some(c) => (c.port_pct, c.starboard_pct, c.vertical_pct),
             None => {
-                warnings.push(format!(
-                    "{}: encoding {:?} is not decoded; left out of the CSV",
-                    t.topic, t.encoding
-                ));
-                continue;
+                self.before_first += 1;
+                (0.0, 0.0, 0.0)
             }
         };
-        extras.push(extra);
+        let mut fix = |x: f64| {
+            let y = if x.is_finite() {
+                x.clamp(-100.0, 100.0)
+            } else {
+                0.0
+            };
+            if y.to_bits() != x.to_bits() {
+                self.clamped += 1;
+            }
+            y
+        };
+        let time_s = p.t_ns.saturating_sub(self.t0) as f64 / 1e9;
+        if self.prev_time_s.is_some_and(|q| time_s <= q) {
+            if self.dropped.len() < 20 {
+                self.dropped.push(format!(
+                    "row at t = {time_s} s does not advance time in seconds; dropped"
+                ));
+            }
+            return Ok(());
+        }
+        self.prev_time_s = Some(time_s);
+        let nav = &p.nav;
+        let mut row = MeasurementRow {
+            time_s,
+            port_pct: fix(port),
+            starboard_pct: fix(stbd),
+            vertical_pct: fix(vert),
+            depth_m: nav.depth_m,
+            heading_deg: nav.heading_deg,
+            pitch_deg: nav.pitch_deg,
+            roll_deg: nav.roll_deg,
+            optional: [None; 8],
+        };
+        for ((ch, get), on) in RATE_COLS.iter().zip(self.rates) {
+            if on {
+                row.set(*ch, Some(get(nav).unwrap_or(f64::NAN)));
+            }
+        }
+        if self.has_truth {
+            let truth = p.truth.flatten();
+            for (ch, get) in TRUTH_COLS {
+                row.set(ch, Some(truth.as_ref().map_or(f64::NAN, get)));
+            }
+        }
+        self.sink
+            .row(p.t_ns, &row, p.extras_text.as_deref().unwrap_or(""))?;
+        self.rows += 1;
+        Ok(())
     }
-    let base = series.to_csv();
-    let extra_columns: Vec<String> = extras
+
+    fn finish(&mut self) -> Result<Vec<String>> {
+        self.snapshot_pending();
+        let cmd = self
+            .pending
+            .as_ref()
+            .and_then(|p| p.cmd_before_guess.clone());
+        self.flush_pending(cmd)?;
+        let mut w = Vec::new();
+        if self.merged > 0 {
+            w.push(format!(
+                "{} {} messages had the same time as the one before; the later one kept",
+                self.merged,
+                Topic::Nav.name()
+            ));
+        }
+        w.append(&mut self.dropped);
+        if self.before_first > 0 {
+            w.push(format!(
+                "{} rows precede the first {} message; their thrust is 0 %",
+                self.before_first,
+                Topic::Thrust.name()
+            ));
+        }
+        if self.clamped > 0 {
+            w.push(format!(
+                "{} thrust values were outside -100..100 % or not finite; clamped",
+                self.clamped
+            ));
+        }
+        for e in &self.extras {
+            if e.bad > 0 {
+                w.push(format!(
+                    "{}: {} messages are not JSON objects; left out of the CSV",
+                    e.topic, e.bad
+                ));
+            }
+            if !e.late_fields.is_empty() {
+                w.push(format!(
+                    "{}: fields {} first appear after the first {DISCOVERY_SAMPLES} messages; left out of the CSV",
+                    e.topic,
+                    e.late_fields.join(", ")
+                ));
+            }
+        }
+        Ok(w)
+    }
+}
+
+/// Whether a topic of the session is absent or usable as `T` (a foreign encoding counts as
+/// absent, with a warning).
+fn usable<T: Record>(session: &Session, warnings: &mut Vec<String>) -> bool {
+    let t = T::TOPIC;
+    match session.topics().into_iter().find(|s| s.topic == t.name()) {
+        None => false,
+        Some(s) if s.known.is_none() => {
+            warnings.push(
+                format!(
+                    "{}",
+                    SessionError::WrongEncoding {
+                        topic: t.name().into(),
+                        found: s.encoding,
+                        expected: t.encoding(),
+                    }
+                ) + "; treated as absent",
+            );
+            false
+        }
+        Some(s) => s.count > 0,
+    }
+}
+
+/// Which rate columns the first nav messages carry.
+fn discover_rates(session: &Session) -> Result<[bool; 3]> {
+    let mut rates = [false; 3];
+    for r in session
+        .record_stream::<NavRecord>()?
+        .take(DISCOVERY_SAMPLES)
+    {
+        let (_, nav) = r?;
+        for ((_, get), on) in RATE_COLS.iter().zip(rates.iter_mut()) {
+            *on |= get(&nav).is_some();
+        }
+    }
+    Ok(rates)
+}
+
+/// What a pass over the rows found.
+struct RowsDone {
+    rows: usize,
+    rates: [bool; 3],
+    has_truth: bool,
+    extra_columns: Vec<String>,
+    warnings: Vec<String>,
+    read: ReadReport,
+}
+
+/// Runs the rows of a session into `sink`: the header, then each row in time order.
+fn build_rows(session: &Session, with_extras: bool, sink: &mut dyn RowSink) -> Result<RowsDone> {
+    let mut warnings = Vec::new();
+    if session.count(Topic::Nav.name()) == 0 {
+        return Err(SessionError::Unusable(format!(
+            "{}: no {} messages, so no measurement rows",
+            session.source().display(),
+            Topic::Nav.name()
+        )));
+    }
+    let rates = discover_rates(session)?;
+    let has_thrust = usable::<ThrustRecord>(session, &mut warnings);
+    let has_truth = usable::<TruthRecord>(session, &mut warnings);
+    let mut topics: Vec<String> = vec![Topic::Nav.name().to_string()];
+    if has_thrust {
+        topics.push(Topic::Thrust.name().to_string());
+    }
+    if has_truth {
+        topics.push(Topic::Truth.name().to_string());
+    }
+    let mut extras = Vec::new();
+    if with_extras {
+        for t in session.topics() {
+            let known_json = t
+                .known
+                .is_some_and(|k| k.is_json() && k != Topic::SessionInfo);
+            let unknown_json = t.known.is_none() && t.encoding == crate::record::JSON_ENCODING;
+            if !(known_json || unknown_json) {
+                if t.known.is_none() {
+                    warnings.push(format!(
+                        "{}: encoding {:?} is not decoded; left out of the CSV",
+                        t.topic, t.encoding
+                    ));
+                }
+                continue;
+            }
+            let prefix = column_prefix(&t.topic);
+            let fields: Vec<String> = match t.known {
+                Some(k) => crate::record::fields_of(k)
+                    .iter()
+                    .map(|f| (*f).to_string())
+                    .collect(),
+                None => {
+                    let mut cols: Vec<String> = Vec::new();
+                    for m in session.topic_messages(&t.topic).take(DISCOVERY_SAMPLES) {
+                        if let Ok(serde_json::Value::Object(obj)) =
+                            serde_json::from_slice::<serde_json::Value>(m.data())
+                        {
+                            for k in obj.keys() {
+                                if !cols.contains(k) {
+                                    cols.push(k.clone());
+                                }
+                            }
+                        }
+                    }
+                    cols
+                }
+            };
+            if !topics.contains(&t.topic) {
+                topics.push(t.topic.clone());
+            }
+            extras.push(Extra {
+                topic: t.topic.clone(),
+                known: t.known,
+                columns: fields.iter().map(|f| format!("{prefix}.{f}")).collect(),
+                fields,
+                latest: None,
+                bad: 0,
+                late_fields: Vec::new(),
+            });
+        }
+    }
+    let mut rows = Rows {
+        t0: session.start_ns().unwrap_or(0),
+        rates,
+        has_truth,
+        extras,
+        cmd_before: None,
+        cmd_latest: None,
+        truth_latest: None,
+        cur_t: None,
+        pending: None,
+        last_nav_t: None,
+        prev_time_s: None,
+        merged: 0,
+        before_first: 0,
+        clamped: 0,
+        dropped: Vec::new(),
+        sink,
+        rows: 0,
+    };
+    let extra_columns: Vec<String> = rows
+        .extras
         .iter()
         .flat_map(|e| e.columns.iter().cloned())
         .collect();
-    let mut text = String::with_capacity(base.len() + times.len() * extra_columns.len() * 8);
-    let mut lines = base.lines();
-    if let Some(header) = lines.next() {
-        text.push_str(header);
-        for c in &extra_columns {
-            text.push(',');
-            text.push_str(c);
-        }
-        text.push('\n');
+    let mut header = measurement_header(rates, has_truth);
+    for c in &extra_columns {
+        header.push(',');
+        header.push_str(c);
     }
-    let mut cursors = vec![0usize; extras.len()];
-    for (line, &t) in lines.zip(&times) {
-        text.push_str(line);
-        for (e, cur) in extras.iter().zip(cursors.iter_mut()) {
-            while e.samples.get(*cur).is_some_and(|(ts, _)| *ts <= t) {
-                *cur += 1;
-            }
-            let sample = cur
-                .checked_sub(1)
-                .and_then(|i| e.samples.get(i))
-                .map(|(_, c)| c);
-            for i in 0..e.columns.len() {
-                text.push(',');
-                if let Some(cell) = sample.and_then(|c| c.get(i)) {
-                    push_cell(&mut text, cell);
-                }
-            }
-        }
-        text.push('\n');
+    header.push('\n');
+    let mut present = [false; 8];
+    for (i, p) in present.iter_mut().enumerate() {
+        *p = match i {
+            0..=2 => rates.get(i).copied().unwrap_or(false),
+            _ => has_truth,
+        };
     }
-    Ok(CsvExport {
-        text,
-        rows: series.rows.len(),
+    rows.sink.header(&header, &present)?;
+    let mut read = session.read(ReadOptions::topics(&topics));
+    for m in read.by_ref() {
+        rows.message(&m)?;
+    }
+    let mut w = rows.finish()?;
+    warnings.append(&mut w);
+    let report = read.report();
+    warnings.extend(report.warnings.iter().cloned());
+    Ok(RowsDone {
+        rows: rows.rows,
+        rates,
+        has_truth,
         extra_columns,
         warnings,
+        read: report,
+    })
+}
+
+/// The header of the measurement columns.
+fn measurement_header(rates: [bool; 3], has_truth: bool) -> String {
+    let mut h: Vec<&str> = REQUIRED_COLUMNS.to_vec();
+    for (i, name) in OPTIONAL_COLUMNS.iter().enumerate() {
+        let on = match i {
+            0..=2 => rates.get(i).copied().unwrap_or(false),
+            _ => has_truth,
+        };
+        if on {
+            h.push(name);
+        }
+    }
+    h.join(",")
+}
+
+/// The rows collected in memory.
+#[derive(Default)]
+struct SeriesSink {
+    rows: Vec<MeasurementRow>,
+    times: Vec<u64>,
+}
+
+impl RowSink for SeriesSink {
+    fn header(&mut self, _: &str, _: &[bool; 8]) -> Result<()> {
+        Ok(())
+    }
+    fn row(&mut self, t_ns: u64, row: &MeasurementRow, _: &str) -> Result<()> {
+        self.rows.push(*row);
+        self.times.push(t_ns);
+        Ok(())
+    }
+}
+
+/// The measurement rows of a session (see the module docs for the timing rule), their
+/// times (ns) and warnings: the export without the extra columns, and the input of the
+/// re-simulation and the lab. Reads only nav, thrust and truth, in one pass.
+pub fn measurements(session: &Session) -> Result<(MeasurementSeries, Vec<u64>, Vec<String>)> {
+    let mut sink = SeriesSink::default();
+    let done = build_rows(session, false, &mut sink)?;
+    let mut series = MeasurementSeries {
+        rows: sink.rows,
+        ..MeasurementSeries::default()
+    };
+    for (i, on) in done.rates.iter().enumerate() {
+        if let Some(p) = series.present.get_mut(i) {
+            *p = *on;
+        }
+    }
+    for (ch, _) in TRUTH_COLS {
+        if let Some(p) = series.present.get_mut(ch as usize) {
+            *p = done.has_truth;
+        }
+    }
+    Ok((series, sink.times, done.warnings))
+}
+
+/// Rows written as CSV text to an output.
+struct TextSink<'a> {
+    out: &'a mut dyn std::io::Write,
+    line: String,
+    /// The optional columns of the header.
+    present: [bool; 8],
+}
+
+impl TextSink<'_> {
+    fn write(&mut self, bytes: &[u8]) -> Result<()> {
+        self.out.write_all(bytes).map_err(|e| SessionError::Io {
+            path: "CSV output".into(),
+            action: "write",
+            source: e,
+        })
+    }
+}
+
+impl RowSink for TextSink<'_> {
+    fn header(&mut self, header: &str, present: &[bool; 8]) -> Result<()> {
+        self.present = *present;
+        self.write(header.as_bytes())
+    }
+    fn row(&mut self, _: u64, row: &MeasurementRow, extras: &str) -> Result<()> {
+        let mut line = std::mem::take(&mut self.line);
+        line.clear();
+        row.push_csv(&mut line, &self.present);
+        line.push_str(extras);
+        line.push('\n');
+        let r = self.write(line.as_bytes());
+        self.line = line;
+        r
+    }
+}
+
+/// Exports a session as a measurement CSV plus every decoded channel to `out`, streaming
+/// (see the module docs). Fails when the session has no `/telemetry/nav` message or `out`
+/// fails. Give `out` a buffer (`BufWriter`): rows are written one at a time.
+pub fn export_csv_to(session: &Session, out: &mut dyn std::io::Write) -> Result<CsvSummary> {
+    let mut sink = TextSink {
+        out,
+        line: String::with_capacity(1024),
+        present: [false; 8],
+    };
+    let done = build_rows(session, true, &mut sink)?;
+    Ok(CsvSummary {
+        rows: done.rows,
+        extra_columns: done.extra_columns,
+        warnings: done.warnings,
+        read: done.read,
+    })
+}
+
+/// [`export_csv_to`] into a string (short sessions and tests).
+pub fn export_csv(session: &Session) -> Result<CsvExport> {
+    let mut buf = Vec::new();
+    let s = export_csv_to(session, &mut buf)?;
+    Ok(CsvExport {
+        text: String::from_utf8_lossy(&buf).into_owned(),
+        rows: s.rows,
+        extra_columns: s.extra_columns,
+        warnings: s.warnings,
     })
 }
 
@@ -489,6 +814,18 @@ pub fn import_csv(text: &str, label: &str, out: impl AsRef<Path>) -> Result<Impo
     .any(has);
     let opt = |row: &MeasurementRow, ch: OptionalChannel| if has(ch) { row.get(ch) } else { None };
     for (row, &t) in series.rows.iter().zip(&times) {
+        if has_truth {
+            let g = |ch| opt(row, ch).unwrap_or(f64::NAN);
+            let truth = TruthRecord {
+                north_m: g(OptionalChannel::NorthM),
+                east_m: g(OptionalChannel::EastM),
+                u_mps: g(OptionalChannel::SurgeMps),
+                v_mps: g(OptionalChannel::SwayMps),
+                w_mps: g(OptionalChannel::HeaveMps),
+                ..TruthRecord::default()
+            };
+            w.write(t, &truth)?;
+        }
         let nav = NavRecord {
             heading_deg: row.heading_deg,
             pitch_deg: row.pitch_deg,
@@ -511,18 +848,6 @@ pub fn import_csv(text: &str, label: &str, out: impl AsRef<Path>) -> Result<Impo
             heading_target_deg: None,
         };
         w.write(t, &thrust)?;
-        if has_truth {
-            let g = |ch| opt(row, ch).unwrap_or(f64::NAN);
-            let truth = TruthRecord {
-                north_m: g(OptionalChannel::NorthM),
-                east_m: g(OptionalChannel::EastM),
-                u_mps: g(OptionalChannel::SurgeMps),
-                v_mps: g(OptionalChannel::SwayMps),
-                w_mps: g(OptionalChannel::HeaveMps),
-                ..TruthRecord::default()
-            };
-            w.write(t, &truth)?;
-        }
     }
     let written = w.finish()?;
     Ok(ImportReport {

@@ -17,15 +17,6 @@ pub enum SessionError {
         #[source]
         source: std::io::Error,
     },
-    /// The MCAP writer failed.
-    #[error("{path}: MCAP write failed: {source}")]
-    Mcap {
-        /// The file.
-        path: PathBuf,
-        /// The writer's error.
-        #[source]
-        source: mcap::McapError,
-    },
     /// A message is larger than the cap; nothing was written.
     #[error(
         "message on {topic} is larger than the {max} byte cap (at least {len} bytes); not written"
@@ -37,6 +28,15 @@ pub enum SessionError {
         len: usize,
         /// The cap, bytes.
         max: usize,
+    },
+    /// A video access unit was refused.
+    #[error("{topic}: {source}")]
+    Video {
+        /// Topic.
+        topic: String,
+        /// What is wrong with it.
+        #[source]
+        source: crate::foxglove::VideoError,
     },
     /// A record could not be encoded as JSON.
     #[error("{topic}: cannot encode the record as JSON: {detail}")]

@@ -1,16 +1,30 @@
 //! Sessions of the topside station: MCAP recording that survives being killed, reading of
-//! complete, truncated and damaged files, recovery, measurement-CSV export and import,
-//! sans-IO playback and re-simulation through a vehicle model.
+//! complete, truncated and damaged files in bounded memory, recovery, measurement-CSV
+//! export and import, playback and re-simulation through a vehicle model.
 //!
 //! * [`record`]: the topics (fixed names), one typed record per JSON topic and its JSON
 //!   Schema. Raw Pro 4 frames go on `/pro4/tx` and `/pro4/rx` (encoding `vr-pro4`).
+//! * [`foxglove`]: Foxglove's standard schemas: the vehicle pose (`/tf`, `/vehicle/pose`,
+//!   `/vehicle/track`) and camera video (`/camera/video`), NED → ENU.
 //! * [`writer`]: [`SessionWriter`]; flush and fsync policy and the crash-safety guarantee.
-//! * [`reader`]: [`open`] / [`Session`]; truncated and corrupt files, warnings, lazy
-//!   per-topic decoding.
+//! * [`session`]: [`open`] / [`Session`]: opening through the summary (no message read) or
+//!   by a scan (damaged files); damage and warnings.
+//! * [`stream`]: [`Messages`], reads in time (or file) order, chunk by chunk.
+//! * [`video`]: video frames in a time range, the key frame at or before a time.
 //! * [`recover`](mod@recover): [`recover()`] writes `NAME.recovered.mcap`.
-//! * [`csv`]: [`export_csv`] and [`import_csv`]; the export timing rule.
+//! * [`csv`]: [`export_csv_to`] (streaming) and [`import_csv`]; the export timing rule.
 //! * [`playback`]: [`Playback`] (play/pause, speed 0.1×–50×, seek, step).
 //! * [`resim`]: [`resimulate`], model-versus-measured traces and fits.
+//!
+//! # Pure parts and I/O
+//!
+//! The records, the wire format ([`wire`](mod@wire) framing, [`chunk`](mod@chunk)
+//! decoding, the Foxglove messages) and the CSV layout take bytes and return values. The
+//! file system is touched in three places only: [`io`] (the reader's [`io::Source`]: a file
+//! or bytes in memory, read at an offset), [`writer`] and [`recover`](mod@recover)
+//! (creating files). Everything between — opening, streams, playback, export — reads
+//! through a `Source`, so it runs the same on a file and on bytes in memory (tests, the
+//! fuzz target).
 //!
 //! # Time
 //!
@@ -20,9 +34,11 @@
 //!
 //! # Files
 //!
-//! Files are standard MCAP (JSON messages with `jsonschema` schemas), readable by
-//! Foxglove, PlotJuggler, the `mcap` CLI and the official Python reader. Reading parses
-//! with bounds-checked code of its own (see [`reader`]); writing uses the `mcap` crate.
+//! Files are standard MCAP (JSON messages with `jsonschema` schemas, protobuf messages
+//! with Foxglove's schemas), readable by Foxglove, PlotJuggler, the `mcap` CLI and the
+//! official Python reader. Reading parses with bounds-checked code of its own
+//! ([`wire`](mod@wire)); writing streams records of its own too, so its memory does not
+//! grow with the recording ([`mcap_file`](mod@mcap_file)).
 #![cfg_attr(
     not(test),
     deny(
@@ -33,20 +49,33 @@
     )
 )]
 
+mod chunk;
 pub mod csv;
+mod encode;
 pub mod error;
+pub mod foxglove;
+mod index;
+pub mod io;
+mod mcap_file;
+mod message;
+mod open;
 pub mod playback;
-pub mod reader;
 pub mod record;
 pub mod recover;
 pub mod resim;
+pub mod session;
+pub mod stream;
+pub mod video;
 mod wire;
 pub mod writer;
 
-pub use csv::{CsvExport, ImportReport, export_csv, import_csv, measurements};
+pub use chunk::MAX_CHUNK_BYTES;
+pub use csv::{
+    CsvExport, CsvSummary, ImportReport, export_csv, export_csv_to, import_csv, measurements,
+};
 pub use error::{Result, SessionError};
+pub use message::{Damage, Decoded, Message, MessageRef, Payload, TopicSummary};
 pub use playback::{MAX_SPEED, MIN_SPEED, Playback};
-pub use reader::{Damage, Decoded, MAX_CHUNK_BYTES, MessageRef, Session, TopicSummary, open};
 pub use record::{
     AutopilotRecord, Cell, Direction, EventRecord, LinkRecord, LinkState, Mode, NavRecord,
     ObserverRecord, PilotRecord, Record, SessionInfo, Severity, StatusRecord, ThrustRecord, Topic,
@@ -54,5 +83,8 @@ pub use record::{
 };
 pub use recover::{RecoveryReport, recover, recovered_path};
 pub use resim::{ChannelFit, ResimOptions, Resimulation, resimulate, resimulate_series};
+pub use session::{Session, open};
+pub use stream::{Messages, ReadOptions, ReadReport};
+pub use video::{VideoFrames, VideoStats};
 pub use wire::{AttachmentData, ChannelDef, SchemaDef};
 pub use writer::{SessionWriter, WriteSummary, WriterOptions};

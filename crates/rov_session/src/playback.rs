@@ -1,12 +1,11 @@
-//! [`Playback`]: a sans-IO player over a loaded session.
+//! [`Playback`]: a player over a session, on wall time given as an argument.
 //!
 //! The player keeps a position on the session's time axis (seconds since the first
-//! message) and a cursor into the messages in time order. Wall time is an argument:
-//! [`Playback::advance`] moves the position by `dt_wall_s × speed` while playing and
-//! returns the messages passed, in time order, as a range of time-order positions
-//! ([`Playback::advance_messages`] returns the messages themselves when the player
-//! borrows the session). It reads no clock and does no I/O; the
-//! station feeds what it returns into the same state pipeline the live link feeds.
+//! message) and a stream of the messages from there on ([`crate::Messages`]: the chunks are
+//! read as the position reaches them). Wall time is an argument: [`Playback::advance`]
+//! moves the position by `dt_wall_s × speed` while playing and returns the messages passed,
+//! in time order. It reads no clock; the station feeds what it returns into the same state
+//! pipeline the live link feeds.
 //!
 //! Semantics:
 //!
@@ -15,49 +14,53 @@
 //!   with the next advance or step).
 //! * A new player is paused at 0 with speed 1×. Reaching the end pauses it.
 //! * [`Playback::set_speed`] clamps to 0.1×–50× (non-finite values are ignored).
-//! * [`Playback::seek`] moves the position (clamped to the session) and the cursor to the
-//!   first message at or after it; nothing is emitted. Use
+//! * [`Playback::seek`] moves the position (clamped to the session) and restarts the stream
+//!   at the first message at or after it; nothing is emitted. Use
 //!   [`Playback::latest_before`] to rebuild state at the new position.
 //! * [`Playback::step`] pauses and emits the next single message, moving the position to
 //!   its time.
 
-use std::borrow::Borrow;
-use std::ops::Range;
-
-use crate::reader::{MessageRef, Session};
+use crate::message::Message;
+use crate::session::Session;
+use crate::stream::{Messages, ReadOptions};
 
 /// Slowest playback speed.
 pub const MIN_SPEED: f64 = 0.1;
 /// Fastest playback speed.
 pub const MAX_SPEED: f64 = 50.0;
 
-/// A sans-IO player. `S` is anything that borrows a [`Session`] (`&Session`,
-/// `Arc<Session>`, `Session`).
-#[derive(Debug, Clone)]
-pub struct Playback<S: Borrow<Session>> {
-    session: S,
+/// A player; see the module docs.
+#[derive(Debug)]
+pub struct Playback {
+    session: Session,
     start_ns: u64,
     duration_ns: u64,
     /// Position, ns since the first message.
     position_ns: f64,
-    /// Next message to emit (time-order position).
-    cursor: usize,
+    /// The messages from the position on.
+    stream: Messages,
+    /// The next message to emit, taken from the stream.
+    next: Option<Message>,
+    /// Messages emitted since the last seek.
+    emitted: u64,
     playing: bool,
     speed: f64,
 }
 
-impl<S: Borrow<Session>> Playback<S> {
+impl Playback {
     /// A paused player at the start, speed 1×.
-    pub fn new(session: S) -> Self {
-        let s: &Session = session.borrow();
-        let start_ns = s.start_ns().unwrap_or(0);
-        let duration_ns = s.end_ns().unwrap_or(0).saturating_sub(start_ns);
+    pub fn new(session: Session) -> Self {
+        let start_ns = session.start_ns().unwrap_or(0);
+        let duration_ns = session.end_ns().unwrap_or(0).saturating_sub(start_ns);
+        let stream = session.messages();
         Self {
             session,
             start_ns,
             duration_ns,
             position_ns: 0.0,
-            cursor: 0,
+            stream,
+            next: None,
+            emitted: 0,
             playing: false,
             speed: 1.0,
         }
@@ -65,7 +68,7 @@ impl<S: Borrow<Session>> Playback<S> {
 
     /// The session.
     pub fn session(&self) -> &Session {
-        self.session.borrow()
+        &self.session
     }
 
     /// Starts playing (from the end, it starts over from 0).
@@ -123,14 +126,21 @@ impl<S: Borrow<Session>> Playback<S> {
         self.duration_ns as f64 * 1e-9
     }
 
-    /// Whether every message has been emitted.
-    pub fn at_end(&self) -> bool {
-        self.cursor >= self.session().len()
+    /// Messages emitted since the last seek (or the start).
+    pub fn emitted(&self) -> u64 {
+        self.emitted
     }
 
-    /// Index (time order) of the next message to emit.
-    pub fn cursor(&self) -> usize {
-        self.cursor
+    fn peek(&mut self) -> Option<&Message> {
+        if self.next.is_none() {
+            self.next = self.stream.next();
+        }
+        self.next.as_ref()
+    }
+
+    /// Whether every message has been emitted.
+    pub fn at_end(&mut self) -> bool {
+        self.peek().is_none()
     }
 
     /// Moves to `t_s` seconds since the first message (clamped); emits nothing.
@@ -138,89 +148,63 @@ impl<S: Borrow<Session>> Playback<S> {
         let t = if t_s.is_finite() { t_s } else { 0.0 };
         let ns = (t * 1e9).clamp(0.0, self.duration_ns as f64);
         self.position_ns = ns;
-        self.cursor = self
-            .session()
-            .lower_bound(self.start_ns.saturating_add(ns as u64));
+        let from = self.start_ns.saturating_add(ns as u64);
+        self.stream = self
+            .session
+            .read(ReadOptions::all().between(from, u64::MAX));
+        self.next = None;
+        self.emitted = 0;
     }
 
     /// Advances by `dt_wall_s` of wall time (× speed, only while playing) and returns the
-    /// time-order positions of the messages passed (read them with
-    /// [`Playback::messages`] or [`Session::message`]).
-    pub fn advance(&mut self, dt_wall_s: f64) -> Range<usize> {
-        let from = self.cursor;
+    /// messages passed, in time order.
+    pub fn advance(&mut self, dt_wall_s: f64) -> Vec<Message> {
+        let mut out = Vec::new();
         if !(self.playing && dt_wall_s.is_finite() && dt_wall_s > 0.0) {
-            return from..from;
+            return out;
         }
         self.position_ns =
             (self.position_ns + dt_wall_s * self.speed * 1e9).min(self.duration_ns as f64 + 1.0);
-        let s: &Session = self.session.borrow();
-        let n = s.len();
         let limit = self.start_ns as f64 + self.position_ns;
-        let mut to = from;
-        while to < n && s.time_at(to).is_some_and(|t| (t as f64) < limit) {
-            to += 1;
-        }
-        self.cursor = to;
-        if to >= n {
-            self.position_ns = self.duration_ns as f64;
-            self.playing = false;
-        }
-        from..to
-    }
-
-    /// Pauses and emits the next message (its time-order position), moving the position to
-    /// its time; `None` at the end.
-    pub fn step(&mut self) -> Option<usize> {
-        self.playing = false;
-        let s: &Session = self.session.borrow();
-        let t = s.time_at(self.cursor)?;
-        let i = self.cursor;
-        self.cursor += 1;
-        self.position_ns = self.position_ns.max(t.saturating_sub(self.start_ns) as f64);
-        Some(i)
-    }
-
-    /// The messages at a range of time-order positions (as returned by
-    /// [`Playback::advance`]).
-    pub fn messages(&self, range: Range<usize>) -> Vec<MessageRef<'_>> {
-        let s = self.session();
-        range.filter_map(|i| s.message(i)).collect()
-    }
-
-    /// For each topic, the last message before the cursor (what a pipeline needs to show
-    /// the state at the position after a seek), in time order.
-    pub fn latest_before(&self) -> Vec<MessageRef<'_>> {
-        let s = self.session();
-        let mut out: Vec<MessageRef<'_>> = Vec::new();
-        for t in s.topics() {
-            let positions = s.topic_positions(&t.topic);
-            let n = positions.partition_point(|&p| (p as usize) < self.cursor);
-            if let Some(m) = n
-                .checked_sub(1)
-                .and_then(|i| positions.get(i))
-                .and_then(|&p| s.message(p as usize))
-            {
+        while self.peek().is_some_and(|m| (m.t_ns as f64) < limit) {
+            if let Some(m) = self.next.take() {
                 out.push(m);
             }
         }
-        out.sort_by_key(|m| m.t_ns);
+        self.emitted += out.len() as u64;
+        if self.peek().is_none() {
+            self.position_ns = self.duration_ns as f64;
+            self.playing = false;
+        }
         out
     }
-}
 
-impl<'s> Playback<&'s Session> {
-    /// [`Playback::advance`], returning the messages (borrowed from the session, not from
-    /// the player).
-    pub fn advance_messages(&mut self, dt_wall_s: f64) -> Vec<MessageRef<'s>> {
-        let s: &'s Session = self.session;
-        self.advance(dt_wall_s)
-            .filter_map(|i| s.message(i))
-            .collect()
+    /// Pauses and emits the next message, moving the position to its time; `None` at the
+    /// end.
+    pub fn step(&mut self) -> Option<Message> {
+        self.playing = false;
+        self.peek()?;
+        let m = self.next.take()?;
+        self.emitted += 1;
+        self.position_ns = self
+            .position_ns
+            .max(m.t_ns.saturating_sub(self.start_ns) as f64);
+        Some(m)
     }
 
-    /// [`Playback::step`], returning the message.
-    pub fn step_message(&mut self) -> Option<MessageRef<'s>> {
-        let s: &'s Session = self.session;
-        self.step().and_then(|i| s.message(i))
+    /// For each topic, the last message before the next one to emit (what a pipeline needs
+    /// to show the state at the position after a seek), in time order. Reads only the
+    /// chunks that hold them.
+    pub fn latest_before(&mut self) -> Vec<Message> {
+        let until = match self.peek() {
+            Some(m) => m.t_ns,
+            None => self.session.end_ns().map_or(0, |e| e.saturating_add(1)),
+        };
+        self.session.latest_before(until)
+    }
+
+    /// What the read found so far (damage stops the player at the last good message).
+    pub fn report(&self) -> crate::ReadReport {
+        self.stream.report()
     }
 }

@@ -38,11 +38,21 @@ pub const TOPIC_EVENTS: &str = "/events";
 pub const TOPIC_TRUTH: &str = "/truth/state";
 /// Session description, one message at the start.
 pub const TOPIC_SESSION_INFO: &str = "/session/info";
+/// The vehicle's pose as a `foxglove.FrameTransform` (world → vehicle), for the 3D panel.
+pub const TOPIC_TRANSFORM: &str = "/tf";
+/// The vehicle's pose as a `foxglove.PoseInFrame` in the world frame.
+pub const TOPIC_POSE: &str = "/vehicle/pose";
+/// The recent track as a `foxglove.PosesInFrame` in the world frame.
+pub const TOPIC_TRACK: &str = "/vehicle/track";
+/// Camera video as `foxglove.CompressedVideo` (H.264, Annex B, one access unit each).
+pub const TOPIC_VIDEO: &str = "/camera/video";
 
 /// Message encoding of the raw-frame topics (no schema; each message is one frame).
 pub const RAW_ENCODING: &str = "vr-pro4";
 /// Message encoding of the decoded topics.
 pub const JSON_ENCODING: &str = "json";
+/// Message (and schema) encoding of the Foxglove topics.
+pub const PROTOBUF_ENCODING: &str = "protobuf";
 /// Schema encoding of the decoded topics.
 pub const JSON_SCHEMA_ENCODING: &str = "jsonschema";
 
@@ -73,11 +83,19 @@ pub enum Topic {
     Truth,
     /// [`TOPIC_SESSION_INFO`].
     SessionInfo,
+    /// [`TOPIC_TRANSFORM`].
+    Transform,
+    /// [`TOPIC_POSE`].
+    Pose,
+    /// [`TOPIC_TRACK`].
+    Track,
+    /// [`TOPIC_VIDEO`].
+    Video,
 }
 
 impl Topic {
     /// Every known topic.
-    pub const ALL: [Topic; 12] = [
+    pub const ALL: [Topic; 16] = [
         Topic::Pro4Tx,
         Topic::Pro4Rx,
         Topic::Nav,
@@ -90,6 +108,10 @@ impl Topic {
         Topic::Events,
         Topic::Truth,
         Topic::SessionInfo,
+        Topic::Transform,
+        Topic::Pose,
+        Topic::Track,
+        Topic::Video,
     ];
 
     /// The topic name.
@@ -107,6 +129,10 @@ impl Topic {
             Topic::Events => TOPIC_EVENTS,
             Topic::Truth => TOPIC_TRUTH,
             Topic::SessionInfo => TOPIC_SESSION_INFO,
+            Topic::Transform => TOPIC_TRANSFORM,
+            Topic::Pose => TOPIC_POSE,
+            Topic::Track => TOPIC_TRACK,
+            Topic::Video => TOPIC_VIDEO,
         }
     }
 
@@ -120,16 +146,31 @@ impl Topic {
         matches!(self, Topic::Pro4Tx | Topic::Pro4Rx)
     }
 
+    /// Whether the topic carries a Foxglove protobuf schema (encoding [`PROTOBUF_ENCODING`]).
+    pub const fn is_foxglove(self) -> bool {
+        matches!(
+            self,
+            Topic::Transform | Topic::Pose | Topic::Track | Topic::Video
+        )
+    }
+
+    /// Whether the topic carries one of the JSON records of this module.
+    pub const fn is_json(self) -> bool {
+        !self.is_raw() && !self.is_foxglove()
+    }
+
     /// The message encoding of the topic.
     pub const fn encoding(self) -> &'static str {
         if self.is_raw() {
             RAW_ENCODING
+        } else if self.is_foxglove() {
+            PROTOBUF_ENCODING
         } else {
             JSON_ENCODING
         }
     }
 
-    /// Dense index (0..12), for per-topic tables.
+    /// Dense index (0..16), for per-topic tables.
     pub const fn index(self) -> usize {
         self as usize
     }
@@ -385,7 +426,9 @@ string_enum! {
 }
 
 /// A typed record of a JSON topic.
-pub trait Record: Serialize + DeserializeOwned + Clone + std::fmt::Debug + PartialEq {
+pub trait Record:
+    Serialize + DeserializeOwned + Clone + std::fmt::Debug + PartialEq + 'static
+{
     /// The topic.
     const TOPIC: Topic;
     /// The schema name (e.g. `topside.TelemetryNav`).
@@ -673,10 +716,12 @@ record! {
     }
 }
 
-/// The JSON Schema text of a JSON topic, `None` for the raw topics.
+/// The JSON Schema text of a JSON topic, `None` for the raw and Foxglove topics (see
+/// [`crate::foxglove::channel_schema`] for every topic).
 pub fn schema_of(topic: Topic) -> Option<(&'static str, Value)> {
     Some(match topic {
         Topic::Pro4Tx | Topic::Pro4Rx => return None,
+        Topic::Transform | Topic::Pose | Topic::Track | Topic::Video => return None,
         Topic::Nav => (NavRecord::SCHEMA_NAME, NavRecord::json_schema()),
         Topic::Status => (StatusRecord::SCHEMA_NAME, StatusRecord::json_schema()),
         Topic::Thrust => (ThrustRecord::SCHEMA_NAME, ThrustRecord::json_schema()),
@@ -690,10 +735,11 @@ pub fn schema_of(topic: Topic) -> Option<(&'static str, Value)> {
     })
 }
 
-/// The field names of a JSON topic (empty for the raw topics).
+/// The field names of a JSON topic (empty for the raw and Foxglove topics).
 pub fn fields_of(topic: Topic) -> &'static [&'static str] {
     match topic {
         Topic::Pro4Tx | Topic::Pro4Rx => &[],
+        Topic::Transform | Topic::Pose | Topic::Track | Topic::Video => &[],
         Topic::Nav => NavRecord::FIELDS,
         Topic::Status => StatusRecord::FIELDS,
         Topic::Thrust => ThrustRecord::FIELDS,
@@ -742,7 +788,7 @@ mod tests {
     fn schemas_name_every_field_with_a_description() {
         for topic in Topic::ALL {
             let Some((name, schema)) = schema_of(topic) else {
-                assert!(topic.is_raw());
+                assert!(!topic.is_json());
                 continue;
             };
             assert!(name.starts_with("topside."));

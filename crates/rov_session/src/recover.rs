@@ -1,14 +1,12 @@
 //! [`recover`]: rewrite a damaged (or any) session file as a complete one.
 
 use std::collections::BTreeMap;
-use std::fs::File;
-use std::io::BufWriter;
 use std::path::{Path, PathBuf};
 
-use mcap::records::MessageHeader;
-
 use crate::error::{Result, SessionError, io_err};
-use crate::reader::{Damage, Session};
+use crate::mcap_file::{McapFile, McapOptions};
+use crate::message::Damage;
+use crate::session::Session;
 
 /// What [`recover`] did.
 #[derive(Debug, Clone, PartialEq)]
@@ -71,12 +69,14 @@ pub fn recovered_path(input: &Path) -> PathBuf {
     input.with_file_name(format!("{stem}.recovered.mcap"))
 }
 
-/// Reads `input` as far as it is intact and writes everything up to the last good record
-/// to [`recovered_path`]`(input)` as a complete MCAP file (with summary and indexes).
+/// Reads `input` as far as it is intact (every record, by a scan: damage anywhere is
+/// found) and writes everything up to the last good record to [`recovered_path`]`(input)`
+/// as a complete MCAP file (with summary and indexes), every channel kept (video too).
 /// The input is never modified; the output is written to a temporary name and renamed.
+/// Memory stays bounded: both passes stream.
 pub fn recover(input: impl AsRef<Path>) -> Result<RecoveryReport> {
     let input = input.as_ref();
-    let session = Session::open(input)?;
+    let session = Session::open_scanned(input)?;
     let output = recovered_path(input);
     if output == input {
         return Err(SessionError::Unusable(format!(
@@ -84,100 +84,77 @@ pub fn recover(input: impl AsRef<Path>) -> Result<RecoveryReport> {
             input.display()
         )));
     }
-    write_copy(&session, &output)?;
+    let copied = write_copy(&session, &output)?;
     let input_bytes = session.file_len();
-    let good_bytes = session.damage().map_or(input_bytes, Damage::at_byte);
+    let damage = session.damage();
+    let good_bytes = damage.as_ref().map_or(input_bytes, Damage::at_byte);
     Ok(RecoveryReport {
         input: input.to_path_buf(),
         output,
         input_bytes,
         good_bytes,
         lost_bytes: input_bytes.saturating_sub(good_bytes),
-        messages_recovered: session.len() as u64,
+        messages_recovered: copied,
         last_good_t_ns: session.end_ns(),
-        damage: session.damage().cloned(),
-        warnings: session.warnings.clone(),
+        damage,
+        warnings: session.warnings().to_vec(),
     })
 }
 
 /// Writes every schema, channel, attachment, metadata record and message (in file order)
-/// of `session` to a complete MCAP file at `output`.
-pub fn write_copy(session: &Session, output: &Path) -> Result<()> {
+/// of `session` to a complete MCAP file at `output`; returns the messages copied.
+pub fn write_copy(session: &Session, output: &Path) -> Result<u64> {
     let tmp = output.with_extension("mcap.partial");
-    let file = File::create(&tmp).map_err(io_err(&tmp, "create"))?;
-    let mcap_err = |source| SessionError::Mcap {
-        path: output.to_path_buf(),
-        source,
+    let werr = io_err(output, "write");
+    let mut w = McapFile::create(
+        &tmp,
+        McapOptions {
+            compress: true,
+            chunk_size: 512 * 1024,
+            library: format!("topside rov_session {} recover", env!("CARGO_PKG_VERSION")),
+        },
+    )
+    .map_err(io_err(&tmp, "create"))?;
+    let copy = |w: &mut McapFile| -> std::io::Result<u64> {
+        for a in session.attachments() {
+            w.attach(a.log_time, a.create_time, &a.name, &a.media_type, &a.data)?;
+        }
+        for (name, map) in session.metadata() {
+            w.write_metadata(name, map)?;
+        }
+        let mut schema_ids = BTreeMap::new();
+        for (id, s) in session.schemas() {
+            schema_ids.insert(*id, w.add_schema(&s.name, &s.encoding, &s.data)?);
+        }
+        let mut channel_ids = BTreeMap::new();
+        for (id, c) in session.channels() {
+            let schema = if c.schema_id == 0 {
+                0
+            } else {
+                schema_ids.get(&c.schema_id).copied().unwrap_or(0)
+            };
+            channel_ids.insert(
+                *id,
+                w.add_channel(schema, &c.topic, &c.encoding, &c.metadata)?,
+            );
+        }
+        let mut copied = 0u64;
+        for m in session.messages_in_file_order() {
+            let Some(&channel_id) = channel_ids.get(&m.channel_id) else {
+                continue;
+            };
+            w.write_message(channel_id, m.sequence, m.t_ns, m.t_ns, m.data())?;
+            copied += 1;
+        }
+        w.finish()?;
+        Ok(copied)
     };
-    let mut w = mcap::WriteOptions::new()
-        .compression(Some(mcap::Compression::Zstd))
-        .compression_threads(0)
-        .chunk_size(Some(512 * 1024))
-        .library(format!(
-            "topside rov_session {} recover (mcap-rs)",
-            env!("CARGO_PKG_VERSION")
-        ))
-        .create(BufWriter::with_capacity(256 * 1024, file))
-        .map_err(mcap_err)?;
-    for a in session.attachments() {
-        w.attach(&mcap::Attachment {
-            log_time: a.log_time,
-            create_time: a.create_time,
-            name: a.name.clone(),
-            media_type: a.media_type.clone(),
-            data: std::borrow::Cow::Borrowed(&a.data),
-        })
-        .map_err(mcap_err)?;
-    }
-    for (name, map) in session.metadata() {
-        w.write_metadata(&mcap::records::Metadata {
-            name: name.clone(),
-            metadata: map.clone(),
-        })
-        .map_err(mcap_err)?;
-    }
-    let mut schema_ids = BTreeMap::new();
-    for (id, s) in session.schemas() {
-        let new = w
-            .add_schema(&s.name, &s.encoding, &s.data)
-            .map_err(mcap_err)?;
-        schema_ids.insert(*id, new);
-    }
-    let mut channel_ids = BTreeMap::new();
-    for (id, c) in session.channels() {
-        let schema = if c.schema_id == 0 {
-            0
-        } else {
-            schema_ids.get(&c.schema_id).copied().unwrap_or(0)
-        };
-        let new = w
-            .add_channel(schema, &c.topic, &c.encoding, &c.metadata)
-            .map_err(mcap_err)?;
-        channel_ids.insert(*id, new);
-    }
-    for m in session.messages_in_file_order() {
-        let Some(&channel_id) = channel_ids.get(&m.channel_id) else {
-            continue;
-        };
-        let header = MessageHeader {
-            channel_id,
-            sequence: m.sequence,
-            log_time: m.t_ns,
-            publish_time: m.t_ns,
-        };
-        w.write_to_known_channel(&header, m.data)
-            .map_err(mcap_err)?;
-    }
-    w.finish().map_err(mcap_err)?;
-    let file = w.into_inner().into_inner().map_err(|e| SessionError::Io {
-        path: tmp.clone(),
-        action: "flush",
-        source: e.into_error(),
-    })?;
+    let copied = copy(&mut w).map_err(werr)?;
+    let file = w.into_file().map_err(io_err(&tmp, "flush"))?;
     file.sync_all().map_err(io_err(&tmp, "fsync"))?;
     drop(file);
     std::fs::rename(&tmp, output).map_err(io_err(output, "rename the finished file to"))?;
-    Ok(())
+    Ok(copied)
 }
 
 #[cfg(test)]

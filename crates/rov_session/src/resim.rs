@@ -16,7 +16,7 @@ use rov_dynamics::{Channel, InitialConditions, ModelOutput, ThrustPct, VehicleMo
 use rov_types::measurement::{MeasurementRow, MeasurementSeries};
 
 use crate::error::{Result, SessionError};
-use crate::reader::Session;
+use crate::session::Session;
 
 /// Re-simulation settings.
 #[derive(Debug, Clone, Copy, PartialEq)]

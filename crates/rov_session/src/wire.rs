@@ -239,27 +239,70 @@ pub(crate) struct ChunkRec<'a> {
     pub uncompressed_crc: u32,
     pub compression: &'a str,
     pub records: &'a [u8],
-    /// Offset of `records` within the chunk body.
-    pub records_start: usize,
 }
 
 pub(crate) fn chunk(body: &[u8]) -> Option<ChunkRec<'_>> {
     let mut r = Rd::new(body);
-    let _start = r.u64()?;
-    let _end = r.u64()?;
+    let _start_ns = r.u64()?;
+    let _end_ns = r.u64()?;
     let uncompressed_size = r.u64()?;
     let uncompressed_crc = r.u32()?;
     let compression = r.str()?;
     let n = usize::try_from(r.u64()?).ok()?;
-    let records_start = r.pos();
     let records = r.bytes(n)?;
     Some(ChunkRec {
         uncompressed_size,
         uncompressed_crc,
         compression,
         records,
-        records_start,
     })
+}
+
+/// A chunk index record (summary section); its channels go to a shared list.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub(crate) struct ChunkIndexRec {
+    pub start_ns: u64,
+    pub end_ns: u64,
+    pub chunk_offset: u64,
+    pub chunk_length: u64,
+    /// Range of the shared channel list holding this chunk's channels.
+    pub chans: (u32, u32),
+}
+
+/// Parses a chunk index; its channel ids (the keys of its message index offsets) are
+/// appended to `channels`.
+pub(crate) fn chunk_index(body: &[u8], channels: &mut Vec<u16>) -> Option<ChunkIndexRec> {
+    let mut r = Rd::new(body);
+    let start_ns = r.u64()?;
+    let end_ns = r.u64()?;
+    let chunk_offset = r.u64()?;
+    let chunk_length = r.u64()?;
+    let mut offsets = Rd::new(r.bytes32()?);
+    let mark = channels.len();
+    while offsets.remaining() > 0 {
+        let (Some(id), Some(_)) = (offsets.u16(), offsets.u64()) else {
+            channels.truncate(mark);
+            return None;
+        };
+        channels.push(id);
+    }
+    let _message_index_length = r.u64()?;
+    let _compression = r.str()?;
+    let _compressed_size = r.u64()?;
+    let _uncompressed_size = r.u64()?;
+    Some(ChunkIndexRec {
+        start_ns,
+        end_ns,
+        chunk_offset,
+        chunk_length,
+        chans: (0, 0),
+    })
+}
+
+/// Offset and length of a record named by an attachment or metadata index.
+pub(crate) fn index_target(body: &[u8]) -> Option<(u64, u64)> {
+    let mut r = Rd::new(body);
+    Some((r.u64()?, r.u64()?))
 }
 
 /// An attachment.
@@ -313,6 +356,8 @@ pub(crate) fn metadata(body: &[u8]) -> Option<(String, BTreeMap<String, String>)
 pub(crate) struct Stats {
     pub message_count: u64,
     pub chunk_count: u32,
+    pub start_ns: u64,
+    pub end_ns: u64,
     pub channel_message_counts: BTreeMap<u16, u64>,
 }
 
@@ -324,12 +369,14 @@ pub(crate) fn statistics(body: &[u8]) -> Option<Stats> {
     let _attachment_count = r.u32()?;
     let _metadata_count = r.u32()?;
     let chunk_count = r.u32()?;
-    let _start = r.u64()?;
-    let _end = r.u64()?;
+    let start_ns = r.u64()?;
+    let end_ns = r.u64()?;
     let channel_message_counts = r.u16_u64_map()?;
     Some(Stats {
         message_count,
         chunk_count,
+        start_ns,
+        end_ns,
         channel_message_counts,
     })
 }

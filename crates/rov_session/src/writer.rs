@@ -2,9 +2,10 @@
 //!
 //! # Layout
 //!
-//! An MCAP file (spec version 0) with small **chunks**, zstd-compressed by default. Each
-//! chunk carries a CRC of its content, so the reader detects a damaged chunk instead of
-//! returning altered values. Schemas and channels are registered lazily, on the first
+//! An MCAP file (spec version 0) with small **chunks**, zstd-compressed by default, written
+//! by [`crate::mcap_file`] (memory flat however long the recording). Each chunk carries a
+//! CRC of its content, so the reader detects a damaged chunk instead of returning altered
+//! values. Schemas and channels are registered lazily, on the first
 //! message of a topic. At creation the writer stores the configuration as the attachment
 //! `config.toml`, a metadata record `session` (vehicle, software version, start time) and
 //! one `/session/info` message.
@@ -40,19 +41,28 @@
 //!
 //! # Bounds
 //!
-//! A message larger than `max_message_bytes` (default 1 MiB) is refused with
+//! A message larger than `max_message_bytes` (default 1 MiB; video access units:
+//! `max_video_message_bytes`, default 8 MiB) is refused with
 //! [`SessionError::MessageTooLarge`]: JSON encoding stops at the cap, so an oversized
 //! record costs no more than the cap in memory.
+//!
+//! # Foxglove topics
+//!
+//! Every `/telemetry/nav` record also gives the vehicle's pose ([`crate::foxglove`]): a
+//! `foxglove.FrameTransform` on `/tf` and a `foxglove.PoseInFrame` on `/vehicle/pose` at
+//! most every `pose_interval_ns` (default 100 ms), north and east from the latest
+//! `/truth/state` (simulated vehicle) or 0, and the recent track on `/vehicle/track`.
+//! [`SessionWriter::write_video`] records camera video as `foxglove.CompressedVideo`.
 
 use std::collections::BTreeMap;
 use std::fs::File;
-use std::io::{BufWriter, Write};
+use std::io::Write;
 use std::path::{Path, PathBuf};
 
-use mcap::records::MessageHeader;
-
 use crate::error::{Result, SessionError, io_err};
-use crate::record::{Direction, JSON_SCHEMA_ENCODING, Record, SessionInfo, Topic, schema_of};
+use crate::foxglove::{self, Track, VehiclePose};
+use crate::mcap_file::{McapFile, McapOptions};
+use crate::record::{Direction, NavRecord, Record, SessionInfo, Topic, TruthRecord};
 
 /// Nanoseconds per millisecond.
 const MS: u64 = 1_000_000;
@@ -71,6 +81,11 @@ pub struct WriterOptions {
     pub max_message_bytes: usize,
     /// zstd-compress the chunks (default true).
     pub compress: bool,
+    /// Largest video access unit accepted, bytes (default 8 MiB).
+    pub max_video_message_bytes: usize,
+    /// Write the pose topics at most this often, ns of session time (default 100 ms);
+    /// `u64::MAX`: no pose topics.
+    pub pose_interval_ns: u64,
 }
 
 impl Default for WriterOptions {
@@ -80,6 +95,8 @@ impl Default for WriterOptions {
             sync_interval_ns: 1_000 * MS,
             max_message_bytes: 1 << 20,
             compress: true,
+            max_video_message_bytes: 8 << 20,
+            pose_interval_ns: 100 * MS,
         }
     }
 }
@@ -100,7 +117,7 @@ pub struct WriteSummary {
 /// Records a session. See the module docs for the layout and the crash-safety guarantee.
 pub struct SessionWriter {
     path: PathBuf,
-    mcap: mcap::Writer<BufWriter<File>>,
+    mcap: McapFile,
     sync_handle: File,
     opts: WriterOptions,
     channels: [Option<u16>; Topic::ALL.len()],
@@ -110,7 +127,14 @@ pub struct SessionWriter {
     last_sync_ns: u64,
     unsynced: bool,
     messages: u64,
+    /// (time, north, east) of the latest truth record.
+    last_truth: Option<(u64, f64, f64)>,
+    last_pose_ns: Option<u64>,
+    track: Track,
 }
+
+/// Truth older than this is not used for the pose's position, ns.
+const TRUTH_MAX_AGE_NS: u64 = 1_000_000_000;
 
 impl std::fmt::Debug for SessionWriter {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -160,28 +184,18 @@ impl SessionWriter {
         opts: WriterOptions,
     ) -> Result<Self> {
         let path = path.as_ref().to_path_buf();
-        let file = File::create(&path).map_err(io_err(&path, "create"))?;
-        let sync_handle = file
-            .try_clone()
+        let mcap = McapFile::create(
+            &path,
+            McapOptions {
+                compress: opts.compress,
+                chunk_size: 1 << 20,
+                library: format!("topside rov_session {}", env!("CARGO_PKG_VERSION")),
+            },
+        )
+        .map_err(io_err(&path, "create"))?;
+        let sync_handle = mcap
+            .file_handle()
             .map_err(io_err(&path, "open a second handle to"))?;
-        let options = mcap::WriteOptions::new()
-            .compression(opts.compress.then_some(mcap::Compression::Zstd))
-            .compression_threads(0)
-            .chunk_size(Some(1 << 20))
-            .use_chunks(true)
-            // Build each chunk in memory and write it in one go: a kill never leaves a
-            // placeholder chunk header behind.
-            .disable_seeking(true)
-            .library(format!(
-                "topside rov_session {} (mcap-rs)",
-                env!("CARGO_PKG_VERSION")
-            ));
-        let mcap = options
-            .create(BufWriter::with_capacity(256 * 1024, file))
-            .map_err(|source| SessionError::Mcap {
-                path: path.clone(),
-                source,
-            })?;
         let mut w = Self {
             path,
             mcap,
@@ -194,43 +208,49 @@ impl SessionWriter {
             last_sync_ns: t_ns,
             unsynced: true,
             messages: 0,
+            last_truth: None,
+            last_pose_ns: None,
+            track: Track::default(),
         };
         let started_ns = if info.started_unix_s.is_finite() && info.started_unix_s > 0.0 {
             (info.started_unix_s * 1e9) as u64
         } else {
             0
         };
-        let attachment = mcap::Attachment {
-            log_time: t_ns,
-            create_time: started_ns,
-            name: "config.toml".into(),
-            media_type: "application/toml".into(),
-            data: std::borrow::Cow::Borrowed(info.config_toml.as_bytes()),
-        };
-        w.mcap.attach(&attachment).map_err(w.mcap_err())?;
-        let metadata = mcap::records::Metadata {
-            name: "session".into(),
-            metadata: BTreeMap::from([
-                ("vehicle".to_string(), info.vehicle.clone()),
-                (
-                    "software_version".to_string(),
-                    info.software_version.clone(),
-                ),
-                (
-                    "started_unix_s".to_string(),
-                    format!("{}", info.started_unix_s),
-                ),
-            ]),
-        };
-        w.mcap.write_metadata(&metadata).map_err(w.mcap_err())?;
+        let metadata = BTreeMap::from([
+            ("vehicle".to_string(), info.vehicle.clone()),
+            (
+                "software_version".to_string(),
+                info.software_version.clone(),
+            ),
+            (
+                "started_unix_s".to_string(),
+                format!("{}", info.started_unix_s),
+            ),
+        ]);
+        let res = w
+            .mcap
+            .attach(
+                t_ns,
+                started_ns,
+                "config.toml",
+                "application/toml",
+                info.config_toml.as_bytes(),
+            )
+            .and_then(|()| w.mcap.write_metadata("session", &metadata));
+        res.map_err(io_err(&w.path, "write"))?;
         w.write(t_ns, info)?;
         w.sync()?;
         Ok(w)
     }
 
-    fn mcap_err(&self) -> impl FnOnce(mcap::McapError) -> SessionError + use<> {
+    fn io_err(&self, action: &'static str) -> impl FnOnce(std::io::Error) -> SessionError + use<> {
         let path = self.path.clone();
-        move |source| SessionError::Mcap { path, source }
+        move |source| SessionError::Io {
+            path,
+            action,
+            source,
+        }
     }
 
     /// The file being written.
@@ -252,19 +272,18 @@ impl SessionWriter {
         if let Some(Some(id)) = self.channels.get(topic.index()) {
             return Ok(*id);
         }
-        let schema_id = match schema_of(topic) {
-            Some((name, schema)) => {
-                let text = schema.to_string();
-                self.mcap
-                    .add_schema(name, JSON_SCHEMA_ENCODING, text.as_bytes())
-                    .map_err(self.mcap_err())?
-            }
-            None => 0,
+        let schema = foxglove::channel_schema(topic);
+        let schema_id = if schema.name.is_empty() {
+            0
+        } else {
+            self.mcap
+                .add_schema(&schema.name, &schema.encoding, &schema.data)
+                .map_err(self.io_err("write"))?
         };
         let id = self
             .mcap
             .add_channel(schema_id, topic.name(), topic.encoding(), &BTreeMap::new())
-            .map_err(self.mcap_err())?;
+            .map_err(self.io_err("write"))?;
         if let Some(slot) = self.channels.get_mut(topic.index()) {
             *slot = Some(id);
         }
@@ -274,19 +293,10 @@ impl SessionWriter {
     fn put(&mut self, topic: Topic, t_ns: u64, from_scratch: Option<&[u8]>) -> Result<()> {
         let channel_id = self.channel(topic)?;
         let sequence = self.sequences.get(topic.index()).copied().unwrap_or(0);
-        let header = MessageHeader {
-            channel_id,
-            sequence,
-            log_time: t_ns,
-            publish_time: t_ns,
-        };
         let data = from_scratch.unwrap_or(&self.scratch);
         self.mcap
-            .write_to_known_channel(&header, data)
-            .map_err(|source| SessionError::Mcap {
-                path: self.path.clone(),
-                source,
-            })?;
+            .write_message(channel_id, sequence, t_ns, t_ns, data)
+            .map_err(io_err(&self.path, "write"))?;
         if let Some(s) = self.sequences.get_mut(topic.index()) {
             *s = s.wrapping_add(1);
         }
@@ -317,7 +327,81 @@ impl SessionWriter {
             topic: T::TOPIC.name().into(),
             detail: e.to_string(),
         })?;
-        self.put(T::TOPIC, t_ns, None)
+        self.put(T::TOPIC, t_ns, None)?;
+        let any: &dyn std::any::Any = record;
+        if let Some(t) = any.downcast_ref::<TruthRecord>() {
+            self.last_truth = (t.north_m.is_finite() && t.east_m.is_finite())
+                .then_some((t_ns, t.north_m, t.east_m));
+        } else if let Some(nav) = any.downcast_ref::<NavRecord>() {
+            self.nav_pose(t_ns, nav)?;
+        }
+        Ok(())
+    }
+
+    /// The pose topics of a navigation record, when due.
+    fn nav_pose(&mut self, t_ns: u64, nav: &NavRecord) -> Result<()> {
+        if self.opts.pose_interval_ns == u64::MAX {
+            return Ok(());
+        }
+        let due = self
+            .last_pose_ns
+            .is_none_or(|l| t_ns < l || t_ns - l >= self.opts.pose_interval_ns);
+        if !due {
+            return Ok(());
+        }
+        let truth = self
+            .last_truth
+            .filter(|(t, _, _)| t_ns.abs_diff(*t) <= TRUTH_MAX_AGE_NS)
+            .map(|(_, north_m, east_m)| TruthRecord {
+                north_m,
+                east_m,
+                ..TruthRecord::default()
+            });
+        if let Some(p) = VehiclePose::from_nav(t_ns, nav, truth.as_ref()) {
+            self.write_pose(&p)?;
+        }
+        Ok(())
+    }
+
+    /// Writes a pose: `/tf`, `/vehicle/pose`, and `/vehicle/track` when one is due (see
+    /// [`crate::foxglove`]). The writer calls this itself for every navigation record; call
+    /// it directly only for poses from another source.
+    pub fn write_pose(&mut self, p: &VehiclePose) -> Result<()> {
+        self.last_pose_ns = Some(p.t_ns);
+        let tf = foxglove::encode(&foxglove::frame_transform(p));
+        self.put(Topic::Transform, p.t_ns, Some(&tf))?;
+        let pose = foxglove::encode(&foxglove::pose_in_frame(p));
+        self.put(Topic::Pose, p.t_ns, Some(&pose))?;
+        if let Some(track) = self.track.push(p) {
+            let bytes = foxglove::encode(&track);
+            if bytes.len() <= self.opts.max_message_bytes {
+                self.put(Topic::Track, p.t_ns, Some(&bytes))?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Records one H.264 access unit (Annex B) captured at `t_ns` on `/camera/video` as a
+    /// `foxglove.CompressedVideo`. A key frame must carry SPS, PPS and an IDR slice; an
+    /// access unit not flagged as a key frame must not hold an IDR slice
+    /// ([`SessionError::Video`] otherwise, nothing written).
+    pub fn write_video(&mut self, t_ns: u64, access_unit: &[u8], key_frame: bool) -> Result<()> {
+        let topic = Topic::Video;
+        if access_unit.len() > self.opts.max_video_message_bytes {
+            return Err(SessionError::MessageTooLarge {
+                topic: topic.name().into(),
+                len: access_unit.len(),
+                max: self.opts.max_video_message_bytes,
+            });
+        }
+        foxglove::check_access_unit(access_unit, key_frame).map_err(|source| {
+            SessionError::Video {
+                topic: topic.name().into(),
+                source,
+            }
+        })?;
+        let bytes = foxglove::encode(&foxglove::video_message(t_ns, access_unit));
+        self.put(topic, t_ns, Some(&bytes))
     }
 
     /// Writes a raw frame (the frame's bytes, nothing else) at `t_ns`, then
@@ -355,7 +439,7 @@ impl SessionWriter {
     /// Closes the current chunk and hands everything written so far to the OS. After this
     /// returns, a SIGKILL loses nothing written before the call.
     pub fn flush(&mut self) -> Result<()> {
-        self.mcap.flush().map_err(self.mcap_err())?;
+        self.mcap.flush().map_err(self.io_err("write"))?;
         self.unsynced = true;
         Ok(())
     }
@@ -380,38 +464,35 @@ impl SessionWriter {
     /// Writes the summary section (statistics, chunk and message indexes) and the footer,
     /// and syncs the file.
     pub fn finish(mut self) -> Result<WriteSummary> {
-        let summary = self.mcap.finish().map_err(self.mcap_err())?;
-        let Self {
-            path,
-            mcap,
-            sync_handle,
-            messages,
-            ..
-        } = self;
-        let buf = mcap.into_inner();
-        let file = buf.into_inner().map_err(|e| SessionError::Io {
-            path: path.clone(),
-            action: "flush",
-            source: e.into_error(),
-        })?;
-        drop(file);
-        sync_handle.sync_all().map_err(io_err(&path, "fsync"))?;
+        let stats = self
+            .mcap
+            .finish()
+            .map_err(self.io_err("write the summary of"))?;
+        self.sync_handle
+            .sync_all()
+            .map_err(io_err(&self.path, "fsync"))?;
         let mut per_topic = BTreeMap::new();
-        let (chunks, counts) = match &summary.stats {
-            Some(s) => (s.chunk_count, s.channel_message_counts.clone()),
-            None => (0, BTreeMap::new()),
-        };
-        for (id, n) in counts {
-            if let Some(ch) = summary.channels.get(&id) {
-                *per_topic.entry(ch.topic.clone()).or_insert(0) += n;
+        for (id, n) in &stats.channel_counts {
+            if let Some(topic) = self.mcap.topic(*id) {
+                *per_topic.entry(topic.to_string()).or_insert(0) += n;
             }
         }
         Ok(WriteSummary {
-            path,
-            messages,
+            path: self.path.clone(),
+            messages: self.messages,
             per_topic,
-            chunks,
+            chunks: stats.chunks,
         })
+    }
+}
+
+impl Drop for SessionWriter {
+    /// A writer dropped without [`SessionWriter::finish`] still writes the summary, best
+    /// effort, without syncing.
+    fn drop(&mut self) {
+        if !self.mcap.is_finished() {
+            let _ = self.mcap.finish();
+        }
     }
 }
 

@@ -29,7 +29,10 @@ fn gaps_and_out_of_order_times_load_with_warnings() {
 
     let s = open(&path).unwrap();
     assert!(s.is_complete());
-    let all = s.warnings.join("\n");
+    // Order and gaps are what a read of the messages finds.
+    let report = s.check();
+    assert!(report.damage.is_none());
+    let all = report.warnings.join("\n");
     assert!(
         all.contains("earlier than the message before them"),
         "{all}"
@@ -102,7 +105,7 @@ fn unknown_topics_are_kept_raw_and_listed() {
     let mut unknown = s.unknown_topics();
     unknown.sort();
     assert_eq!(unknown, ["/camera/jpeg", "/command/thrust", "/sonar/ping"]);
-    let all = s.warnings.join("\n");
+    let all = s.warnings().join("\n");
     assert!(
         all.contains("unknown topic /sonar/ping (20 messages"),
         "{all}"
@@ -112,6 +115,7 @@ fn unknown_topics_are_kept_raw_and_listed() {
     let e = s.records::<ThrustRecord>().unwrap_err();
     assert!(matches!(e, SessionError::WrongEncoding { .. }), "{e}");
     let ping = s.topic_messages("/sonar/ping").next().unwrap();
+    assert_eq!(ping.topic(), "/sonar/ping");
     match ping.decode_any().unwrap() {
         Decoded::UnknownJson(v) => assert_eq!(v["ok"], true),
         other => panic!("{other:?}"),

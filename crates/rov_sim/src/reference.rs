@@ -5,13 +5,16 @@
 //! semi-implicit Euler exactly as the README describes (t_k = k·dt, τ_k the sum of the
 //! steps with round(t_on/dt) ≤ k < round(t_off/dt), held over [t_k, t_k+1), M⁻¹ formed
 //! once, all C_A entries kept, a constant current from the case's `Vc` and `beta_c_rad`);
-//! [`reference_csv`] writes the reference files' exact header and `%.15e` row layout.
+//! [`run_reference_case_with`] hands each row to the caller as it is computed (so a long
+//! run streams to a file in constant memory); [`push_reference_row`] formats a row with the
+//! reference files' header and columns, numbers in the shortest form that reads back to the
+//! same value (`rov_types::number`; the files' `%.15e` text is not reproduced, their
+//! values are, to 1e-14).
 //!
 //! M_RB is built from `m`, `r_bg` and `I_cg_diag` through H(r_bg); when the file has
 //! `MRB_CO`, it is cross-checked (|difference| ≤ 1e-9 per entry).
 
 use std::collections::BTreeMap;
-use std::fmt::Write as _;
 
 use nalgebra::{Matrix3, Vector3};
 use rov_dynamics::integrators::{rk4_step, semi_implicit_euler_step};
@@ -408,13 +411,49 @@ pub fn run_reference_case(
     case_name: &str,
     integrator: ReferenceIntegrator,
 ) -> Result<Vec<ReferenceRow>, ReferenceError> {
+    let mut rows = Vec::new();
+    run_reference_case_with(params, case_name, integrator, |r| {
+        rows.push(*r);
+        Ok::<(), ReferenceError>(())
+    })?;
+    Ok(rows)
+}
+
+/// [`run_reference_case`], handing each row to `sink` as it is computed instead of
+/// keeping them; a sink error stops the run and is returned.
+pub fn run_reference_case_with<E: From<ReferenceError>>(
+    params: &ReferenceParams,
+    case_name: &str,
+    integrator: ReferenceIntegrator,
+    sink: impl FnMut(&ReferenceRow) -> Result<(), E>,
+) -> Result<(), E> {
     let case = params.case(case_name)?;
     let pm = params.process_model()?;
-    run_process_case(&pm, case, params.dt_s, params.t_end_s, integrator).map_err(|source| {
-        ReferenceError::Dynamics {
+    let mut err: Option<E> = None;
+    let mut sink = sink;
+    let res =
+        run_process_case_with(
+            &pm,
+            case,
+            params.dt_s,
+            params.t_end_s,
+            integrator,
+            |r| match sink(r) {
+                Ok(()) => true,
+                Err(e) => {
+                    err = Some(e);
+                    false
+                }
+            },
+        );
+    if let Some(e) = err {
+        return Err(e);
+    }
+    res.map_err(|source| {
+        E::from(ReferenceError::Dynamics {
             file: params.file.clone(),
             source,
-        }
+        })
     })
 }
 
@@ -427,19 +466,36 @@ pub fn run_process_case(
     integrator: ReferenceIntegrator,
 ) -> Result<Vec<ReferenceRow>, DynamicsError> {
     let n = (t_end_s / dt_s).round_ties_even() as i64;
-    let current = case.current();
     let mut rows = Vec::with_capacity(usize::try_from(n + 1).unwrap_or(0));
+    run_process_case_with(pm, case, dt_s, t_end_s, integrator, |r| {
+        rows.push(*r);
+        true
+    })?;
+    Ok(rows)
+}
+
+/// [`run_process_case`], handing each row to `sink`; the run stops when it returns false.
+pub fn run_process_case_with(
+    pm: &ProcessModel,
+    case: &ReferenceCase,
+    dt_s: f64,
+    t_end_s: f64,
+    integrator: ReferenceIntegrator,
+    mut sink: impl FnMut(&ReferenceRow) -> bool,
+) -> Result<(), DynamicsError> {
+    let n = (t_end_s / dt_s).round_ties_even() as i64;
+    let current = case.current();
     let mut x = ModelState::new(case.eta0, case.nu0);
     for k in 0..=n {
         let t = k as f64 * dt_s;
         let tau = case.tau_at_step(k, dt_s);
-        rows.push(ReferenceRow {
+        let row = ReferenceRow {
             t_s: t,
             eta: x.eta,
             nu: x.nu,
             tau,
-        });
-        if k == n {
+        };
+        if !sink(&row) || k == n {
             break;
         }
         x = match integrator {
@@ -469,44 +525,28 @@ pub fn run_process_case(
             });
         }
     }
-    Ok(rows)
+    Ok(())
 }
 
-/// Formats like Python's `"%.15e"`: `1.000000000000000e-02`, `-4.506751573000641e-08`,
-/// `nan`, `inf`, `-inf`.
-pub fn format_e15(x: f64) -> String {
-    if x.is_nan() {
-        return "nan".into();
+/// Appends one row as a CSV line (the columns of [`REFERENCE_HEADER`], numbers in the
+/// shortest form that reads back exactly, `\n` at the end).
+pub fn push_reference_row(out: &mut String, row: &ReferenceRow) {
+    rov_types::number::push_f64(out, row.t_s);
+    for x in row.eta.iter().chain(row.nu.iter()).chain(row.tau.iter()) {
+        out.push(',');
+        rov_types::number::push_f64(out, *x);
     }
-    if x.is_infinite() {
-        return if x > 0.0 { "inf".into() } else { "-inf".into() };
-    }
-    let s = format!("{x:.15e}");
-    match s.split_once('e') {
-        Some((mantissa, exp)) => {
-            let e: i32 = exp.parse().unwrap_or(0);
-            format!(
-                "{mantissa}e{}{:02}",
-                if e < 0 { '-' } else { '+' },
-                e.unsigned_abs()
-            )
-        }
-        None => s,
-    }
+    out.push('\n');
 }
 
-/// The rows as CSV text with [`REFERENCE_HEADER`] and `%.15e` values.
+/// The rows as CSV text with [`REFERENCE_HEADER`] (short runs and tests; long ones
+/// stream with [`run_reference_case_with`] and [`push_reference_row`]).
 pub fn reference_csv(rows: &[ReferenceRow]) -> String {
-    let mut out = String::with_capacity(64 + rows.len() * 19 * 23);
+    let mut out = String::with_capacity(64 + rows.len() * 19 * 12);
     out.push_str(REFERENCE_HEADER);
     out.push('\n');
     for row in rows {
-        out.push_str(&format_e15(row.t_s));
-        for x in row.eta.iter().chain(row.nu.iter()).chain(row.tau.iter()) {
-            out.push(',');
-            let _ = write!(out, "{}", format_e15(*x));
-        }
-        out.push('\n');
+        push_reference_row(&mut out, row);
     }
     out
 }
@@ -514,19 +554,6 @@ pub fn reference_csv(rows: &[ReferenceRow]) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn python_percent_e_format() {
-        assert_eq!(format_e15(0.01), "1.000000000000000e-02");
-        assert_eq!(format_e15(-4.506751573000641e-08), "-4.506751573000641e-08");
-        assert_eq!(format_e15(0.0), "0.000000000000000e+00");
-        assert_eq!(format_e15(-0.0), "-0.000000000000000e+00");
-        assert_eq!(format_e15(2.0), "2.000000000000000e+00");
-        assert_eq!(format_e15(1e100), "1.000000000000000e+100");
-        assert_eq!(format_e15(-1.5e-300), "-1.500000000000000e-300");
-        assert_eq!(format_e15(f64::NAN), "nan");
-        assert_eq!(format_e15(f64::NEG_INFINITY), "-inf");
-    }
 
     #[test]
     fn bad_json_and_missing_keys_name_the_key() {

@@ -9,7 +9,7 @@ use rov_dynamics::process::{CurrentSample, ProcessModel};
 use rov_dynamics::{Matrix6, Vector6};
 use rov_sim::reference::{
     REFERENCE_HEADER, ReferenceCase, ReferenceIntegrator, ReferenceParams, ReferenceStep,
-    format_e15, reference_csv, run_process_case, run_reference_case,
+    reference_csv, run_process_case, run_reference_case,
 };
 
 const DIR: &str = concat!(
@@ -77,16 +77,25 @@ fn reference_cases_reproduced_with_both_integrators() {
     }
 }
 
+/// The CSV reads back to exactly the rows computed (shortest round-trip numbers).
 #[test]
-fn formatter_reproduces_python_percent_e_byte_for_byte() {
-    // Every cell of a reference file, parsed and re-formatted, gives the same text.
-    let (text, _) = read_csv("b_surge_yaw_coriolis_rk4.csv");
-    for line in text.lines().skip(1).take(500) {
-        for cell in line.split(',') {
-            let x: f64 = cell.parse().unwrap();
-            assert_eq!(format_e15(x), cell);
-        }
+fn csv_reads_back_bit_for_bit() {
+    let p = params();
+    let rows = run_reference_case(&p, "b_surge_yaw_coriolis", ReferenceIntegrator::Rk4).unwrap();
+    let csv = reference_csv(&rows);
+    for (line, row) in csv.lines().skip(1).zip(&rows) {
+        let cells: Vec<f64> = line.split(',').map(|c| c.parse().unwrap()).collect();
+        let want: Vec<f64> = std::iter::once(row.t_s)
+            .chain(row.eta.iter().copied())
+            .chain(row.nu.iter().copied())
+            .chain(row.tau.iter().copied())
+            .collect();
+        assert_eq!(
+            cells.iter().map(|x| x.to_bits()).collect::<Vec<_>>(),
+            want.iter().map(|x| x.to_bits()).collect::<Vec<_>>()
+        );
     }
+    assert_eq!(csv.lines().count(), rows.len() + 1);
 }
 
 #[test]

@@ -625,7 +625,7 @@ fn scenario(name: &str, comeback: Comeback) -> Figures {
             continue;
         }
         assert!(t >= t_rec, "a frame at {t} µs while the port was gone");
-        let frame = Frame::parse(bytes).unwrap();
+        let frame = Frame::parse(&bytes).unwrap();
         if let Ok(c) = ControlBlock::from_frame(&frame) {
             assert!(rov_driver::is_neutral(&c), "{c:?}");
             neutral += 1;

@@ -4,6 +4,7 @@
 //!   with errors that name the file, the key path, the value and the allowed range.
 //! * [`measurement`]: the measurement CSV format that the simulator writes and the model
 //!   lab and the session tools read.
+//! * [`number`]: how every CSV writer formats numbers (shortest round trip).
 //!
 //! This crate does no I/O: it parses and formats text. Callers read and write files.
 #![cfg_attr(
@@ -18,6 +19,7 @@
 
 pub mod conventions;
 pub mod measurement;
+pub mod number;
 pub mod params;
 
 pub use measurement::{MeasurementError, MeasurementRow, MeasurementSeries};

@@ -16,8 +16,6 @@
 //! An empty cell, `nan` or `NaN` in a measurement column is a missing sample (kept as
 //! NaN, never dropped). Time and thrust cells must be finite.
 
-use std::fmt::Write as _;
-
 /// The required columns, in the order the writer uses.
 pub const REQUIRED_COLUMNS: [&str; 8] = [
     "time_s",
@@ -63,6 +61,36 @@ pub struct MeasurementRow {
     pub roll_deg: f64,
     /// Optional channels, in [`OPTIONAL_COLUMNS`] order; `None` when the column is absent.
     pub optional: [Option<f64>; 8],
+}
+
+impl MeasurementRow {
+    /// Appends the row's cells (the required columns, then the optional ones `present`
+    /// marks, NaN where absent) as CSV, without a line end; numbers as
+    /// [`crate::number`] writes them.
+    pub fn push_csv(&self, out: &mut String, present: &[bool; 8]) {
+        let req = [
+            self.time_s,
+            self.port_pct,
+            self.starboard_pct,
+            self.vertical_pct,
+            self.depth_m,
+            self.heading_deg,
+            self.pitch_deg,
+            self.roll_deg,
+        ];
+        for (i, x) in req.iter().enumerate() {
+            if i > 0 {
+                out.push(',');
+            }
+            push_num(out, *x);
+        }
+        for (value, present) in self.optional.iter().zip(present) {
+            if *present {
+                out.push(',');
+                push_num(out, value.unwrap_or(f64::NAN));
+            }
+        }
+    }
 }
 
 /// Index of each optional channel in [`MeasurementRow::optional`].
@@ -328,30 +356,7 @@ impl MeasurementSeries {
         out.push_str(&header.join(","));
         out.push('\n');
         for row in &self.rows {
-            let req = [
-                row.time_s,
-                row.port_pct,
-                row.starboard_pct,
-                row.vertical_pct,
-                row.depth_m,
-                row.heading_deg,
-                row.pitch_deg,
-                row.roll_deg,
-            ];
-            let mut first = true;
-            for x in req {
-                if !first {
-                    out.push(',');
-                }
-                first = false;
-                push_num(&mut out, x);
-            }
-            for (value, present) in row.optional.iter().zip(self.present) {
-                if present {
-                    out.push(',');
-                    push_num(&mut out, value.unwrap_or(f64::NAN));
-                }
-            }
+            row.push_csv(&mut out, &self.present);
             out.push('\n');
         }
         out
@@ -367,11 +372,7 @@ impl MeasurementSeries {
 }
 
 fn push_num(out: &mut String, x: f64) {
-    if x.is_nan() {
-        out.push_str("nan");
-    } else {
-        let _ = write!(out, "{x}");
-    }
+    crate::number::push_f64(out, x);
 }
 
 fn parse_cell(cell: &str) -> Option<f64> {

@@ -2,16 +2,20 @@
 //! decoded channel.
 //!
 //! The columns, the time axis (strictly increasing numeric seconds since the first
-//! message) and the timing rule (row k's command is the last one sent before the next
-//! sample) are those of `rov_session::csv`. A truncated or damaged file is exported as far
-//! as it is intact, with a warning on stderr. Warnings go to stderr, one per line.
+//! message), the number format (shortest round trip) and the timing rule (row k's command
+//! is the last one sent before the next sample) are those of `rov_session::csv`. The export
+//! streams: the session is read chunk by chunk and the CSV written row by row (to
+//! `OUT.csv.partial`, renamed when complete), so an 8-hour session needs no more memory
+//! than a short one. A truncated or damaged file is exported as far as it is intact, with
+//! a warning on stderr. Warnings go to stderr, one per line.
 
+use std::io::Write as _;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
 use anyhow::Context;
 use clap::Args;
-use rov_session::{Session, export_csv};
+use rov_session::{Session, export_csv_to};
 
 /// Arguments of `topside export`.
 #[derive(Debug, Args)]
@@ -24,10 +28,8 @@ pub struct ExportArgs {
     pub csv: PathBuf,
 }
 
-/// Opens a session and prints, on stderr, its damage and warnings (shared by the session
-/// commands).
-pub fn open_with_warnings(path: &std::path::Path) -> anyhow::Result<Session> {
-    let session = Session::open(path)?;
+/// Prints a session's damage (as far as known) on stderr.
+pub fn warn_damage(path: &std::path::Path, session: &Session) {
     if let Some(d) = session.damage() {
         eprintln!(
             "warning: {}: {d}; using what is intact (`topside session recover {}` writes a complete copy)",
@@ -35,7 +37,14 @@ pub fn open_with_warnings(path: &std::path::Path) -> anyhow::Result<Session> {
             path.display()
         );
     }
-    for w in &session.warnings {
+}
+
+/// Opens a session (its index only) and prints, on stderr, its damage and warnings
+/// (shared by the session commands).
+pub fn open_with_warnings(path: &std::path::Path) -> anyhow::Result<Session> {
+    let session = Session::open(path)?;
+    warn_damage(path, &session);
+    for w in session.warnings() {
         eprintln!("warning: {}: {w}", path.display());
     }
     Ok(session)
@@ -43,12 +52,34 @@ pub fn open_with_warnings(path: &std::path::Path) -> anyhow::Result<Session> {
 
 pub fn run(args: ExportArgs) -> anyhow::Result<ExitCode> {
     let session = open_with_warnings(&args.file)?;
-    let csv = export_csv(&session)?;
+    let partial = {
+        let mut name = args.csv.clone().into_os_string();
+        name.push(".partial");
+        PathBuf::from(name)
+    };
+    let file = std::fs::File::create(&partial)
+        .with_context(|| format!("creating {}", partial.display()))?;
+    let mut out = std::io::BufWriter::with_capacity(1 << 20, file);
+    let csv = match export_csv_to(&session, &mut out) {
+        Ok(c) => c,
+        Err(e) => {
+            drop(out);
+            let _ = std::fs::remove_file(&partial);
+            return Err(e.into());
+        }
+    };
+    out.flush()
+        .with_context(|| format!("writing {}", partial.display()))?;
+    drop(out);
+    std::fs::rename(&partial, &args.csv)
+        .with_context(|| format!("renaming {} to {}", partial.display(), args.csv.display()))?;
+    // Damage a read found on the way (a complete file opens without reading its chunks).
+    if csv.read.damage.is_some() && session.is_indexed() {
+        warn_damage(&args.file, &session);
+    }
     for w in &csv.warnings {
         eprintln!("warning: {w}");
     }
-    std::fs::write(&args.csv, &csv.text)
-        .with_context(|| format!("writing {}", args.csv.display()))?;
     eprintln!(
         "wrote {}: {} rows, the measurement columns and {} channel columns",
         args.csv.display(),

@@ -335,16 +335,16 @@ impl<'a> Pilot<'a> {
     }
 }
 
-fn runtime_config(seed: u64) -> anyhow::Result<RuntimeConfig> {
+fn runtime_config(seed: u64, config: Option<&std::path::Path>) -> anyhow::Result<RuntimeConfig> {
     Ok(RuntimeConfig {
         gamepad: false,
         sim_seed: seed,
-        ..crate::cmd_station::config(None)?
+        ..crate::cmd_station::config(None, config)?
     })
 }
 
 /// Runs `topside record`.
-pub fn run(args: RecordArgs) -> anyhow::Result<ExitCode> {
+pub fn run(args: RecordArgs, config: Option<&std::path::Path>) -> anyhow::Result<ExitCode> {
     if !args.sim {
         bail!(
             "headless recording needs --sim (the built-in simulated vehicle); a real Pro 4 is recorded by the station window (`topside --port PATH`)"
@@ -367,7 +367,7 @@ pub fn run(args: RecordArgs) -> anyhow::Result<ExitCode> {
     if let Some(dir) = args.out.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     }
-    let cfg = runtime_config(args.seed)?;
+    let cfg = runtime_config(args.seed, config)?;
     let wall = Instant::now();
     let (refused_arm, control) = if args.fast {
         (record_fast(cfg, &args, script)?, serde_json::Value::Null)
@@ -450,6 +450,8 @@ fn record_real_time(
     Ok((refused, control))
 }
 
+/// Prints what was recorded, from the file's summary section (its statistics and index:
+/// no message is read back, whatever the length of the dive).
 fn summarize(
     args: &RecordArgs,
     wall_s: f64,
@@ -466,7 +468,7 @@ fn summarize(
     if refused_arm {
         eprintln!("warning: the vehicle did not arm within {ARM_RETRY_S} s of the script's `arm`");
     }
-    for w in &session.warnings {
+    for w in session.warnings() {
         eprintln!("warning: {w}");
     }
     if args.json {

@@ -1,25 +1,31 @@
-//! `topside replay FILE.mcap --headless [--speed X] [--model M]`: replay a session without
-//! the GUI and print a summary.
+//! `topside replay FILE.mcap --headless [--speed X] [--model M] [--check]`: a session's
+//! summary without the GUI, optionally a model fit and a full check.
 //!
-//! The session runs through the sans-IO player (`rov_session::Playback`) on virtual wall
-//! time in 20 ms frames at the given speed (0.1–50×), every message decoded by its topic
-//! as the station pipeline would; then the recorded thrust commands drive the chosen
-//! model (default model3). Output: one JSON object on stdout with `file`, `complete`,
-//! `damage`, `duration_s`, `messages`, `speed`, `replay_wall_s` (the wall time the replay
-//! takes at that speed), `channels` (topic, encoding, schema, count, decode errors),
-//! `model` and `fit` (per channel: `predicted`, `samples`, `fit_pct`, `rmse`), and
-//! `warnings`; the same in words on stderr. A truncated file is replayed as far as it is
-//! intact, with a warning.
+//! * By default the summary comes from the file's index alone (the MCAP summary section:
+//!   statistics, channels, chunk indexes), so it takes the same fraction of a second for an
+//!   8-hour session as for a minute: `file`, `complete` (no damage known), `damage`,
+//!   `duration_s`, `messages`, `speed`, `replay_wall_s` (the wall time a replay at that
+//!   speed takes: the duration divided by the speed), `channels` (topic, encoding, schema,
+//!   known, count), `warnings`.
+//! * `--check` reads every message, decodes each by its topic (JSON records, raw frames,
+//!   the Foxglove messages) and checks every chunk: `decode_errors` per channel, damage
+//!   anywhere, messages out of order and gaps in the warnings.
+//! * `--model M` (model1, model2, model3 or a saved extended model's name) drives the
+//!   model with the recorded thrust commands and reports the fit per channel (`model`,
+//!   `fit`: `predicted`, `samples`, `fit_pct`, `rmse`); it reads nav, thrust and truth.
+//!
+//! Output: one JSON object on stdout, the same in words on stderr. A truncated file is
+//! summarised as far as it is intact, with a warning.
 
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::Args;
-use rov_session::{Playback, ResimOptions, resimulate};
+use rov_session::{MAX_SPEED, MIN_SPEED, ResimOptions, resimulate};
 use serde_json::json;
 
-use crate::cmd_export::open_with_warnings;
+use crate::cmd_export::{open_with_warnings, warn_damage};
 use crate::cmd_session::damage_json;
 
 /// Arguments of `topside replay`.
@@ -28,53 +34,67 @@ pub struct ReplayArgs {
     /// The session file (a truncated recording is accepted, with a warning).
     #[arg(value_name = "FILE.mcap")]
     pub file: PathBuf,
-    /// Replay without the GUI and print a summary (the GUI replay is not built yet).
+    /// Replay without the GUI and print a summary (the GUI replays from its Replay tab).
     #[arg(long)]
     pub headless: bool,
-    /// Playback speed, 0.1–50 (clamped).
+    /// Playback speed, 0.1–50 (clamped); sets `replay_wall_s`.
     #[arg(long, default_value_t = 1.0)]
     pub speed: f64,
-    /// Model the recorded commands drive: model1, model2 or model3.
-    #[arg(long, default_value = "model3")]
-    pub model: String,
+    /// Fit this model to the session (model1, model2 or model3): the recorded thrust
+    /// commands drive it.
+    #[arg(long)]
+    pub model: Option<String>,
+    /// Read and decode every message and check every chunk.
+    #[arg(long)]
+    pub check: bool,
 }
-
-/// Wall-time frame of the headless player, s.
-const FRAME_S: f64 = 0.02;
 
 pub fn run(args: ReplayArgs) -> anyhow::Result<ExitCode> {
     if !args.headless {
-        anyhow::bail!("the replay GUI is not built yet; use --headless");
+        anyhow::bail!("the replay GUI is the station window's Replay tab; use --headless here");
     }
-    let model = rov_dynamics::load_default_model(&args.model)?;
+    let model = match &args.model {
+        Some(m) => Some(rov_dynamics::load_default_model(m)?),
+        None => None,
+    };
     let session = open_with_warnings(&args.file)?;
-
-    // Playback on virtual wall time: every message once, decoded by its topic.
-    let mut player = Playback::new(&session);
-    let speed = player.set_speed(args.speed);
+    let speed = if args.speed.is_finite() {
+        args.speed.clamp(MIN_SPEED, MAX_SPEED)
+    } else {
+        1.0
+    };
     if speed != args.speed {
         eprintln!("warning: speed {} clamped to {speed}", args.speed);
     }
+    let mut warnings = session.warnings().to_vec();
+
     let mut decode_errors: BTreeMap<String, u64> = BTreeMap::new();
-    let mut first_error: Option<String> = None;
-    let mut frames = 0u64;
-    player.play();
-    while player.is_playing() {
-        for m in player.advance_messages(FRAME_S) {
-            if let Err(e) = m.decode_any() {
-                *decode_errors.entry(m.topic.to_string()).or_insert(0) += 1;
+    if args.check {
+        let mut read = session.messages_in_file_order();
+        let mut first_error: Option<String> = None;
+        for m in read.by_ref() {
+            if let Err(e) = m.validate() {
+                *decode_errors.entry(m.topic().to_string()).or_insert(0) += 1;
                 first_error.get_or_insert_with(|| e.to_string());
             }
         }
-        frames += 1;
+        if let Some(e) = &first_error {
+            eprintln!("warning: some messages do not decode, e.g. {e}");
+        }
+        let report = read.report();
+        for w in &report.warnings {
+            eprintln!("warning: {w}");
+        }
+        warnings.extend(report.warnings);
+        if report.damage.is_some() && session.is_indexed() {
+            warn_damage(&args.file, &session);
+        }
     }
-    if let Some(e) = &first_error {
-        eprintln!("warning: some messages do not decode, e.g. {e}");
-    }
-    let replay_wall_s = frames as f64 * FRAME_S;
+    let duration_s = session.duration_s();
+    let replay_wall_s = duration_s / speed;
 
-    let channels: Vec<serde_json::Value> = session
-        .topics()
+    let topics = session.topics();
+    let channels: Vec<serde_json::Value> = topics
         .iter()
         .map(|t| {
             json!({
@@ -83,14 +103,16 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<ExitCode> {
                 "schema": t.schema_name,
                 "known": t.known.is_some(),
                 "count": t.count,
-                "decode_errors": decode_errors.get(&t.topic).copied().unwrap_or(0),
+                "decode_errors": args.check.then(|| decode_errors.get(&t.topic).copied().unwrap_or(0)),
             })
         })
         .collect();
 
-    let resim = resimulate(&session, model.as_ref(), &ResimOptions::default());
-    let (fit, fit_error, mut warnings) = match &resim {
-        Ok(r) => {
+    let resim = model
+        .as_ref()
+        .map(|m| resimulate(&session, m.as_ref(), &ResimOptions::default()));
+    let (fit, fit_error) = match &resim {
+        Some(Ok(r)) => {
             let fits: Vec<serde_json::Value> = r
                 .fits
                 .iter()
@@ -104,36 +126,40 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<ExitCode> {
                     })
                 })
                 .collect();
-            (Some(fits), None, r.warnings.clone())
+            warnings.extend(r.warnings.iter().cloned());
+            (Some(fits), None)
         }
-        Err(e) => {
+        Some(Err(e)) => {
             eprintln!("warning: no model fit: {e}");
-            (None, Some(e.to_string()), Vec::new())
+            (None, Some(e.to_string()))
         }
+        None => (None, None),
     };
-    let mut all_warnings = session.warnings.clone();
-    all_warnings.append(&mut warnings);
+    if model.is_some() && session.is_indexed() && session.damage().is_some() && !args.check {
+        warn_damage(&args.file, &session);
+    }
 
     let out = json!({
         "file": args.file,
         "complete": session.is_complete(),
-        "damage": damage_json(session.damage()),
-        "duration_s": session.duration_s(),
+        "damage": damage_json(session.damage().as_ref()),
+        "duration_s": duration_s,
         "messages": session.len(),
         "speed": speed,
         "replay_wall_s": replay_wall_s,
         "channels": channels,
+        "checked": args.check,
         "model": args.model,
         "fit": fit,
         "fit_error": fit_error,
-        "warnings": all_warnings,
+        "warnings": warnings,
     });
     println!("{out}");
 
     eprintln!(
         "{}: {:.3} s, {} messages{}; replay at {speed}x takes {replay_wall_s:.2} s",
         args.file.display(),
-        session.duration_s(),
+        duration_s,
         session.len(),
         if session.is_complete() {
             ""
@@ -142,7 +168,7 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<ExitCode> {
         }
     );
     eprintln!("{:<22} {:>9}  encoding", "channel", "messages");
-    for t in session.topics() {
+    for t in &topics {
         eprintln!(
             "{:<22} {:>9}  {}{}",
             t.topic,
@@ -155,14 +181,11 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<ExitCode> {
             }
         );
     }
-    if let Ok(r) = &resim {
-        eprintln!(
-            "fit of {} (fit % = 100 (1 - |y - yhat| / |y - mean y|)):",
-            args.model
-        );
+    if let (Some(Ok(r)), Some(name)) = (&resim, &args.model) {
+        eprintln!("fit of {name} (fit % = 100 (1 - |y - yhat| / |y - mean y|)):");
         for f in &r.fits {
             match (f.predicted, f.fit_pct, f.rmse) {
-                (false, _, _) => eprintln!("  {:<14} not predicted by {}", f.name, args.model),
+                (false, _, _) => eprintln!("  {:<14} not predicted by {name}", f.name),
                 (true, Some(fit), Some(rmse)) => {
                     eprintln!(
                         "  {:<14} fit {fit:7.2} %  RMSE {rmse:.4} ({} samples)",

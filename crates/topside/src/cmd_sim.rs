@@ -29,9 +29,10 @@ pub struct PaperArgs {
     /// Output directory (created if missing).
     #[arg(long)]
     pub out: PathBuf,
-    /// Directory holding model1.toml, model2.toml and model3.toml.
-    #[arg(long, default_value = "config/models")]
-    pub models: PathBuf,
+    /// Directory holding model1.toml, model2.toml and model3.toml (default: the built-in
+    /// parameter files).
+    #[arg(long)]
+    pub models: Option<PathBuf>,
     /// Seed of the simulated sensor noise.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,

@@ -75,7 +75,16 @@ fn paper_vehicle(mut params: Model3Params) -> anyhow::Result<Box<dyn VehicleMode
     Ok(Box::new(Model3::new(params)?))
 }
 
-fn read_model_text(dir: &Path, name: &str) -> anyhow::Result<(String, String)> {
+/// A model's parameter file: from `dir`, or the built-in one.
+fn read_model_text(dir: Option<&Path>, name: &str) -> anyhow::Result<(String, String)> {
+    let Some(dir) = dir else {
+        let text = rov_dynamics::models::default_model_text(name)
+            .with_context(|| format!("no built-in model {name}"))?;
+        return Ok((
+            text.to_string(),
+            format!("built-in config/models/{name}.toml"),
+        ));
+    };
     let path = dir.join(format!("{name}.toml"));
     let text = fs::read_to_string(&path).with_context(|| format!("reading {}", path.display()))?;
     Ok((text, path.display().to_string()))
@@ -108,10 +117,10 @@ pub fn run(args: PaperArgs) -> anyhow::Result<std::process::ExitCode> {
     fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
     let mut models = Vec::new();
     for name in MODELS {
-        let (text, label) = read_model_text(&args.models, name)?;
+        let (text, label) = read_model_text(args.models.as_deref(), name)?;
         models.push((name, load_model(name, &text, &label)?));
     }
-    let (m3_text, m3_label) = read_model_text(&args.models, "model3")?;
+    let (m3_text, m3_label) = read_model_text(args.models.as_deref(), "model3")?;
     let m3_params = Model3Params::from_params(&ParamFile::parse(&m3_text, &m3_label, true)?)?;
     let truth: Box<dyn VehicleModel> = match args.truth {
         TruthArg::Paper => paper_vehicle(m3_params)?,

@@ -6,9 +6,10 @@
 //! FILE.toml`), so an extended model simulates like any other. `F` is a measurement CSV,
 //! an MCAP session or a BlueROV2 tank CSV. The output has `time_s`, the commands, and one
 //! column per channel the model predicts (`depth_m`, `heading_deg`, … in the measurement
-//! CSV's units); the per-channel fit is printed.
+//! CSV's units), numbers in the shortest form that reads back exactly, written row by row;
+//! the per-channel fit is printed.
 
-use std::fmt::Write as _;
+use std::io::Write as _;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -18,6 +19,7 @@ use rov_dynamics::models::Channel;
 use rov_lab::calibrate::View;
 use rov_lab::metrics::channel_metrics;
 use rov_lab::sim::simulate_run;
+use rov_types::number::push_f64;
 
 /// `topside sim run`
 #[derive(Debug, Args)]
@@ -63,29 +65,41 @@ pub fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
         .copied()
         .filter(|c| pred.channel(*c).is_some())
         .collect();
-    let mut text = String::from("time_s,port_pct,starboard_pct,vertical_pct");
+    let file = std::fs::File::create(&args.out)
+        .with_context(|| format!("writing {}", args.out.display()))?;
+    let mut out = std::io::BufWriter::with_capacity(1 << 20, file);
+    let mut line = String::from("time_s,port_pct,starboard_pct,vertical_pct");
     for c in &chans {
-        text.push(',');
-        text.push_str(&column(*c));
+        line.push(',');
+        line.push_str(&column(*c));
     }
-    text.push('\n');
+    line.push('\n');
+    let werr = |e: std::io::Error| anyhow::anyhow!("writing {}: {e}", args.out.display());
+    out.write_all(line.as_bytes()).map_err(werr)?;
     for (k, (t, cmd)) in run.t.iter().zip(&run.cmd).enumerate() {
-        let _ = write!(
-            text,
-            "{t:.6},{},{},{}",
-            cmd.port, cmd.starboard, cmd.vertical
-        );
+        line.clear();
+        for (i, x) in [*t, cmd.port, cmd.starboard, cmd.vertical]
+            .into_iter()
+            .enumerate()
+        {
+            if i > 0 {
+                line.push(',');
+            }
+            push_f64(&mut line, x);
+        }
         for c in &chans {
             let v = pred
                 .channel(*c)
                 .and_then(|y| y.get(k))
                 .copied()
                 .unwrap_or(f64::NAN);
-            let _ = write!(text, ",{v}");
+            line.push(',');
+            push_f64(&mut line, v);
         }
-        text.push('\n');
+        line.push('\n');
+        out.write_all(line.as_bytes()).map_err(werr)?;
     }
-    std::fs::write(&args.out, text).with_context(|| format!("writing {}", args.out.display()))?;
+    out.flush().map_err(werr)?;
     println!(
         "{} on {} ({} samples, {:.1} s, {}) -> {}",
         args.model,

@@ -7,8 +7,11 @@
 //!   screenshot of itself (eframe viewport screenshot), saves it as PNG and closes; the
 //!   exit status says whether the PNG was written (used by the Xvfb test).
 //!
-//! The control settings come from `config/station.toml` when it exists in the working
-//! directory (the built-in defaults otherwise). Every session is recorded from the
+//! The settings (control, alarms, the pilot's `[station]` table, stick shaping and the
+//! gamepad map) come from `--config PATH`, else the user's `station.toml` in the
+//! platform's configuration directory, else the built-in defaults (see
+//! [`crate::config_file`]); the Settings and Gamepad pages save into the file read, or
+//! create the user's file. Every session is recorded from the
 //! moment the station starts, to `./recordings/session-<unix time>.mcap` (`--recordings DIR` elsewhere; REC
 //! stops and restarts it; `--no-record` starts without recording).
 
@@ -17,41 +20,50 @@ use std::process::ExitCode;
 use std::sync::atomic::Ordering;
 
 use anyhow::Context as _;
-use rov_control::ControlConfig;
 use rov_gui::{RealBackend, ScreenshotRequest, StationApp, Tab};
 use rov_station::runtime::settings::{self, StationSettings};
 use rov_station::runtime::{Connection, Runtime, RuntimeConfig};
 
-/// The station's configuration file, relative to the working directory.
-const CONFIG_PATH: &str = "config/station.toml";
-
-/// The runtime settings: `config/station.toml` when it exists (defaults otherwise), on
-/// the given port or the simulator. Shared with `topside record`.
-pub fn config(port: Option<String>) -> anyhow::Result<RuntimeConfig> {
-    Ok(config_and_settings(port)?.0)
+/// The runtime settings (see [`crate::config_file`]), on the given port or the
+/// simulator. Shared with `topside record`.
+pub fn config(
+    port: Option<String>,
+    config: Option<&std::path::Path>,
+) -> anyhow::Result<RuntimeConfig> {
+    Ok(config_and_settings(port, config)?.0)
 }
 
-/// [`config`] and the pilot's `[station]` settings.
+/// [`config`] and the pilot's `[station]` settings: control, alarms, stick shaping and
+/// the gamepad map come from the same file, checked with the file, key, value and range
+/// named on an error.
 pub fn config_and_settings(
     port: Option<String>,
-) -> anyhow::Result<(RuntimeConfig, StationSettings)> {
-    let text = std::fs::read_to_string(CONFIG_PATH).unwrap_or_default();
-    let control = if text.is_empty() {
-        ControlConfig::default()
-    } else {
-        ControlConfig::from_toml_str(&text, CONFIG_PATH)
-            .with_context(|| format!("reading {CONFIG_PATH}"))?
-    };
+    config: Option<&std::path::Path>,
+) -> anyhow::Result<(RuntimeConfig, StationSettings, PathBuf)> {
+    let user = crate::config_file::user_config_path();
+    let loaded = crate::config_file::load(config, user.as_deref())?;
+    let label = loaded.path.as_ref().map_or_else(
+        || "built-in station.toml".to_string(),
+        |p| p.display().to_string(),
+    );
+    if let Some(p) = &loaded.path {
+        eprintln!("settings from {}", p.display());
+    }
     let pilot =
-        settings::load_all(&text, CONFIG_PATH).with_context(|| format!("reading {CONFIG_PATH}"))?;
+        settings::load_all(&loaded.text, &label).with_context(|| format!("reading {label}"))?;
     let (alarms, station) = (pilot.alarms, pilot.station);
     let mut sim_faults = rov_station::runtime::SimFaults::none();
     sim_faults.drop_reply = station.sim_link_errors_pct / 100.0;
+    let save_to = loaded
+        .path
+        .clone()
+        .or(user)
+        .unwrap_or_else(|| PathBuf::from("station.toml"));
     Ok((
         RuntimeConfig {
             connection: port.map_or(Connection::Sim, Connection::Serial),
-            control,
-            config_toml: text,
+            control: loaded.control,
+            config_toml: loaded.text,
             alarms,
             sim_faults,
             shaping: pilot.shaping,
@@ -59,6 +71,7 @@ pub fn config_and_settings(
             ..RuntimeConfig::default()
         },
         station,
+        save_to,
     ))
 }
 
@@ -72,6 +85,7 @@ fn parse_size(s: &str) -> Option<[f32; 2]> {
 /// Opens the station window; see the module docs.
 pub fn run_station(
     port: Option<String>,
+    config_path: Option<&std::path::Path>,
     record_to: Option<PathBuf>,
     screenshot: Option<(PathBuf, f64)>,
     window_size: Option<String>,
@@ -85,7 +99,7 @@ pub fn run_station(
         None => None,
     };
     let explicit_port = port.is_some();
-    let (mut cfg, station) = config_and_settings(port)?;
+    let (mut cfg, station, save_to) = config_and_settings(port, config_path)?;
     if !explicit_port && !station.serial_port.trim().is_empty() {
         cfg.connection = Connection::Serial(station.serial_port.trim().to_string());
     }
@@ -102,7 +116,7 @@ pub fn run_station(
     // naming as the REC button), unless --no-record.
     let mut app = StationApp::new(Box::new(backend), None)
         .with_record_on_connect(record_to.is_some() && station.record_on_connect)
-        .with_settings(PathBuf::from(CONFIG_PATH), cfg.alarms, station)
+        .with_settings(save_to, cfg.alarms, station)
         .with_gamepad(cfg.pad_map.clone(), cfg.shaping);
     app.connect_handle(live);
     if let Some(e) = error {

@@ -2,6 +2,8 @@
 //!
 //! With no arguments it opens the station on the built-in simulated vehicle. The
 //! subcommands give headless access for scripts and tests; each lives in its own module.
+//! Settings: `--config PATH`, else the user's file in the platform's configuration
+//! directory, else built in ([`config_file`]); the binary needs no file beside it.
 
 mod cmd_export;
 mod cmd_hold;
@@ -16,6 +18,7 @@ mod cmd_sim_paper;
 mod cmd_sim_reference;
 mod cmd_sim_run;
 mod cmd_station;
+mod config_file;
 
 use clap::{Parser, Subcommand};
 
@@ -31,6 +34,10 @@ struct Cli {
     /// Fly a real Pro 4 on this serial port (default: the built-in simulated vehicle).
     #[arg(long, value_name = "PATH")]
     port: Option<String>,
+    /// Station settings file (default: station.toml in the platform's configuration
+    /// directory, e.g. ~/.config/topside/ on Linux, else the built-in defaults).
+    #[arg(long, value_name = "PATH", global = true)]
+    config: Option<std::path::PathBuf>,
     /// Start the station without recording (by default every session is recorded to
     /// ./recordings/).
     #[arg(long)]
@@ -81,10 +88,11 @@ fn main() -> std::process::ExitCode {
         Some(Command::Export(args)) => cmd_export::run(args),
         Some(Command::Import(args)) => cmd_import::run(args),
         Some(Command::Session(args)) => cmd_session::run(args),
-        Some(Command::Record(args)) => cmd_record::run(args),
+        Some(Command::Record(args)) => cmd_record::run(args, cli.config.as_deref()),
         Some(Command::Lab(args)) => cmd_lab::run(args),
         None => cmd_station::run_station(
             cli.port,
+            cli.config.as_deref(),
             (!cli.no_record).then_some(cli.recordings),
             cli.screenshot.map(|p| (p, cli.screenshot_after_s)),
             cli.window_size,

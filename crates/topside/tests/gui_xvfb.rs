@@ -81,7 +81,7 @@ fn the_station_window_renders_under_xvfb_and_screenshots_itself() {
     assert!(session.len() > 100, "{} messages", session.len());
     assert!(session.count("/telemetry/nav") > 50);
     // Closing the window finishes the file (footer written, nothing to recover).
-    assert!(session.is_complete(), "{:?}", session.warnings);
+    assert!(session.is_complete(), "{:?}", session.warnings());
 
     let (w, h, px) = rov_gui::screenshot::load_png(&out).unwrap();
     assert_eq!((w, h), (1280, 800), "window size");

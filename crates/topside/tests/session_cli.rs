@@ -122,11 +122,38 @@ fn import_export_and_replay() {
     }
     assert!(back.rows.windows(2).all(|w| w[1].time_s > w[0].time_s));
 
+    // The summary alone: from the index, no model fit, no decoding.
     let o = topside(&["replay", &d.arg("s.mcap"), "--headless", "--speed", "50"]);
     assert!(o.status.success(), "{}", stderr(&o));
     let j = json_out(&o);
     assert_eq!(j["complete"], true);
+    assert_eq!(j["model"], serde_json::Value::Null);
+    assert_eq!(j["fit"], serde_json::Value::Null);
+    assert_eq!(j["checked"], false);
+    assert!(
+        j["channels"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .all(|c| c["decode_errors"].is_null())
+    );
+    assert!((j["duration_s"].as_f64().unwrap() - 19.98).abs() < 1e-9);
+
+    let o = topside(&[
+        "replay",
+        &d.arg("s.mcap"),
+        "--headless",
+        "--speed",
+        "50",
+        "--model",
+        "model3",
+        "--check",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let j = json_out(&o);
+    assert_eq!(j["complete"], true);
     assert_eq!(j["model"], "model3");
+    assert_eq!(j["checked"], true);
     assert_eq!(j["speed"], 50.0);
     assert!(
         (j["duration_s"].as_f64().unwrap() - 19.98).abs() < 1e-9,
@@ -146,7 +173,11 @@ fn import_export_and_replay() {
     assert_eq!(count("/telemetry/nav"), Some(1000.into()));
     assert_eq!(count("/command/thrust"), Some(1000.into()));
     assert_eq!(count("/session/info"), Some(1.into()));
-    assert!(channels.iter().all(|c| c["decode_errors"] == 0));
+    assert_eq!(count("/tf"), Some(200.into()), "poses at 10 Hz");
+    assert!(
+        channels.iter().all(|c| c["decode_errors"] == 0),
+        "{channels:?}"
+    );
     let fit = j["fit"].as_array().unwrap();
     assert_eq!(fit.len(), 4);
     for f in fit {

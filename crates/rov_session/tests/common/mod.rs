@@ -244,6 +244,11 @@ print(json.dumps({
     "summary_messages": summary.statistics.message_count if summary and summary.statistics else None,
 }))
 "#;
+    python_json(script, path)
+}
+
+/// Runs a Python script on a file; its stdout as JSON.
+pub fn python_json(script: &str, path: &Path) -> serde_json::Value {
     let out = Command::new("python3")
         .args(["-c", script])
         .arg(path)
@@ -251,7 +256,8 @@ print(json.dumps({
         .expect("run python3");
     assert!(
         out.status.success(),
-        "the Python mcap reader failed on {}:\n{}",
+        "the Python mcap reader failed on {} (scripts/setup.sh installs mcap and \
+         mcap-protobuf-support):\n{}",
         path.display(),
         String::from_utf8_lossy(&out.stderr)
     );

@@ -1,8 +1,13 @@
 //! Telemetry history for plots.
 //!
-//! * [`History`]: a columnar store (time as `f64`, values as `f32`), one hour at 50 Hz
-//!   by default (≈ 10 MB), contiguous per column so a plot can binary-search the time
-//!   column and scan a slice; the oldest samples are dropped in blocks beyond capacity.
+//! * [`History`]: a columnar store (time as `f64`, values as `f32`), contiguous per column
+//!   so a plot can binary-search the time column and scan a slice. The last hour at 50 Hz
+//!   (by default) is kept at full rate; older samples are not dropped but folded, in
+//!   blocks, into a decimated tier in front of them: a minimum/maximum pair per channel and
+//!   per bucket of [`COARSE_BUCKET_S`] (the bucket doubles whenever the tier outgrows half
+//!   the capacity). So the "all" plot window of an 8-hour dive shows its whole envelope,
+//!   and the store never holds more than 1.5 × capacity samples (≈ 16 MB by default),
+//!   however long the station runs.
 //! * The runtime does not share its store with the GUI: each tick appends one
 //!   [`HistorySample`] to a small shared ring ([`HistoryFeed`]) under a lock held for
 //!   a copy only, and the GUI pulls new samples into its own [`History`] once per frame
@@ -127,13 +132,20 @@ impl Channel {
 /// One hour at 50 Hz.
 pub const DEFAULT_CAPACITY: usize = 3600 * 50;
 
+/// The first bucket of the decimated tier, s.
+pub const COARSE_BUCKET_S: f64 = 1.0;
+
 /// The columnar store; see the module docs.
 #[derive(Debug, Clone)]
 pub struct History {
     capacity: usize,
     t: Vec<f64>,
     cols: Vec<Vec<f32>>,
-    /// Samples dropped at the old end (capacity) or lost in transfer (ring overflow).
+    /// Samples `[0, coarse_len)` are the decimated tier.
+    coarse_len: usize,
+    /// Its bucket, s.
+    bucket_s: f64,
+    /// Full-rate samples folded into the decimated tier, and lost in transfer.
     dropped: u64,
     lost: u64,
     /// Sequence number of the next sample expected from the feed.
@@ -156,6 +168,8 @@ impl History {
             capacity,
             t: Vec::new(),
             cols: vec![Vec::new(); Channel::ALL.len()],
+            coarse_len: 0,
+            bucket_s: COARSE_BUCKET_S,
             dropped: 0,
             lost: 0,
             next_seq: 0,
@@ -163,13 +177,31 @@ impl History {
         }
     }
 
-    /// Capacity, samples.
+    /// Capacity at full rate, samples.
     #[must_use]
     pub const fn capacity(&self) -> usize {
         self.capacity
     }
 
-    /// Number of samples held.
+    /// Samples of the decimated tier (at the start of the columns).
+    #[must_use]
+    pub const fn coarse_len(&self) -> usize {
+        self.coarse_len
+    }
+
+    /// The decimated tier's bucket, s.
+    #[must_use]
+    pub const fn coarse_bucket_s(&self) -> f64 {
+        self.bucket_s
+    }
+
+    /// Time of the first full-rate sample, s (`None` when empty).
+    #[must_use]
+    pub fn full_rate_from_s(&self) -> Option<f64> {
+        self.t.get(self.coarse_len).copied()
+    }
+
+    /// Number of samples held (both tiers).
     #[must_use]
     pub fn len(&self) -> usize {
         self.t.len()
@@ -181,7 +213,7 @@ impl History {
         self.t.is_empty()
     }
 
-    /// Samples dropped at the old end because of the capacity.
+    /// Full-rate samples folded into the decimated tier because of the capacity.
     #[must_use]
     pub const fn dropped(&self) -> u64 {
         self.dropped
@@ -199,24 +231,100 @@ impl History {
         for c in &mut self.cols {
             c.clear();
         }
+        self.coarse_len = 0;
+        self.bucket_s = COARSE_BUCKET_S;
     }
 
     /// Appends a sample (times should not decrease; a sample older than the last one is
     /// still appended, plots tolerate it).
     pub fn push(&mut self, s: &HistorySample) {
-        if self.t.len() >= self.capacity {
-            // Drop an eighth at once: amortised O(1) per sample, contiguous columns.
-            let n = (self.capacity / 8).max(1).min(self.t.len());
-            self.t.drain(..n);
-            for c in &mut self.cols {
-                c.drain(..n.min(c.len()));
+        if self.t.len() - self.coarse_len >= self.capacity {
+            // Fold the oldest eighth of the full-rate samples at once: amortised O(1) per
+            // sample, contiguous columns.
+            let n = (self.capacity / 8).max(1);
+            let end = (self.coarse_len + n).min(self.t.len());
+            self.dropped += (end - self.coarse_len) as u64;
+            let added = self.fold(self.coarse_len, end, self.bucket_s);
+            self.coarse_len += added;
+            while self.coarse_len > self.capacity / 2 && self.bucket_s < 1e9 {
+                self.bucket_s *= 2.0;
+                self.coarse_len = self.fold(0, self.coarse_len, self.bucket_s);
             }
-            self.dropped += n as u64;
         }
         self.t.push(s.t_s);
         for (c, ch) in self.cols.iter_mut().zip(Channel::ALL) {
             c.push(ch.of(s));
         }
+    }
+
+    /// Replaces the samples `[a, b)` by a minimum/maximum pair per channel and per bucket
+    /// of `bucket_s` (runs of at most two samples stay as they are); returns the number of
+    /// samples that replace them.
+    fn fold(&mut self, a: usize, b: usize, bucket_s: f64) -> usize {
+        let (Some(ts), true) = (self.t.get(a..b), bucket_s > 0.0) else {
+            return 0;
+        };
+        // Groups of consecutive samples in the same bucket.
+        let mut groups: Vec<(usize, usize)> = Vec::new();
+        let mut start = 0usize;
+        for i in 1..=ts.len() {
+            let split = match (ts.get(i), ts.get(start)) {
+                (Some(x), Some(s0)) => (x / bucket_s).floor() != (s0 / bucket_s).floor(),
+                _ => true,
+            };
+            if split {
+                groups.push((start, i));
+                start = i;
+            }
+        }
+        let mut new_t: Vec<f64> = Vec::with_capacity(groups.len() * 2);
+        let mut new_cols: Vec<Vec<f32>> =
+            vec![Vec::with_capacity(groups.len() * 2); self.cols.len()];
+        for &(g0, g1) in &groups {
+            let (Some(&ta), Some(&tb)) = (ts.get(g0), ts.get(g1 - 1)) else {
+                continue;
+            };
+            if g1 - g0 <= 2 {
+                for i in g0..g1 {
+                    new_t.push(ts.get(i).copied().unwrap_or(f64::NAN));
+                    for (nc, c) in new_cols.iter_mut().zip(&self.cols) {
+                        nc.push(c.get(a + i).copied().unwrap_or(f32::NAN));
+                    }
+                }
+                continue;
+            }
+            new_t.push(ta);
+            new_t.push(tb);
+            for (nc, c) in new_cols.iter_mut().zip(&self.cols) {
+                let vals = c.get(a + g0..a + g1).unwrap_or(&[]);
+                let (lo, hi) = vals
+                    .iter()
+                    .filter(|x| !x.is_nan())
+                    .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &x| {
+                        (lo.min(x), hi.max(x))
+                    });
+                if lo > hi {
+                    nc.push(f32::NAN);
+                    nc.push(f32::NAN);
+                    continue;
+                }
+                let first = vals.iter().copied().find(|x| !x.is_nan()).unwrap_or(lo);
+                let (x0, x1) = if (first - lo).abs() <= (hi - first).abs() {
+                    (lo, hi)
+                } else {
+                    (hi, lo)
+                };
+                nc.push(x0);
+                nc.push(x1);
+            }
+        }
+        let n = new_t.len();
+        self.t.splice(a..b, new_t);
+        for (c, nc) in self.cols.iter_mut().zip(new_cols) {
+            let e = b.min(c.len());
+            c.splice(a.min(e)..e, nc);
+        }
+        n
     }
 
     /// The time column, s.
@@ -457,17 +565,52 @@ mod tests {
     }
 
     #[test]
-    fn capacity_drops_old_samples_in_blocks() {
+    fn capacity_folds_old_samples_into_the_decimated_tier() {
         let mut h = History::with_capacity(80);
         for i in 0..200 {
-            h.push(&sample(f64::from(i), i as f32));
+            h.push(&sample(f64::from(i) * 0.1, i as f32));
         }
-        assert!(h.len() <= 80);
-        assert_eq!(h.times().last(), Some(&199.0));
+        assert!(h.len() - h.coarse_len() <= 80);
+        assert_eq!(h.times().last(), Some(&(199.0 * 0.1)));
         assert_eq!(h.column(Channel::Depth).len(), h.len());
-        assert_eq!(h.dropped() as usize + h.len(), 200);
-        let r = h.range(150.0, 160.0);
-        assert_eq!(r.len(), 11);
+        assert_eq!(h.dropped() as usize + h.len() - h.coarse_len(), 200);
+        // The full-rate part is intact.
+        let r = h.range(15.0, 15.95);
+        assert_eq!(r.len(), 10);
+        // The folded part keeps every second's extremes, in time order.
+        let coarse = h.column(Channel::Depth).get(..h.coarse_len()).unwrap();
+        assert_eq!(coarse.first(), Some(&0.0));
+        assert!(coarse.contains(&9.0) && coarse.contains(&10.0));
+        assert!(h.times().windows(2).all(|w| w[0] <= w[1]));
+    }
+
+    /// Eight hours at 50 Hz through the default store: bounded, and the whole dive's
+    /// envelope is still there.
+    #[test]
+    fn eight_hours_stay_bounded_with_the_whole_envelope() {
+        let mut h = History::default();
+        let n = 8 * 3600 * 50;
+        let mut peak = 0usize;
+        for k in 0..n {
+            let t = f64::from(k) * 0.02;
+            let mut s = sample(t, (t / 600.0).sin() as f32);
+            if k == 1000 {
+                s.depth_m = 50.0; // one spike in the first minute
+            }
+            h.push(&s);
+            peak = peak.max(h.len());
+        }
+        assert!(peak <= DEFAULT_CAPACITY * 3 / 2 + 16, "{peak}");
+        assert!(h.heap_bytes() < 32 << 20, "{}", h.heap_bytes());
+        assert_eq!(h.time_span(), Some((0.0, f64::from(n - 1) * 0.02)));
+        let d = h.column(Channel::Depth);
+        assert!(d.contains(&50.0), "the spike survives decimation");
+        let full_from = h.full_rate_from_s().unwrap();
+        assert!(
+            (full_from - (8.0 - 1.0) * 3600.0).abs() < 600.0,
+            "{full_from}"
+        );
+        assert!(h.coarse_bucket_s() >= COARSE_BUCKET_S);
     }
 
     #[test]

@@ -4,20 +4,31 @@
 //!
 //! * [`Runtime::replay`](crate::runtime::Runtime::replay) plays on wall time on its own
 //!   thread; [`VirtualReplay`] is stepped by the caller (tests).
-//! * The plots grow as the player advances, like a live session. A seek rebuilds the
-//!   state from the last message of each topic before the new position, and replaces
-//!   the plot history with the samples up to it (computed once when the file is opened).
+//! * Opening reads the file's index only (an 8-hour session opens in well under 2 s); the
+//!   player reads the chunks as the position reaches them.
+//! * The plots grow as the player advances, like a live session. The whole session's plot
+//!   history (a decimated [`History`], bounded) and the tether-turn count at each second
+//!   are computed by an indexing pass over the file: on a thread of its own for the
+//!   threaded replay (the plots and turn counts of positions it has not reached yet come
+//!   when it gets there), before opening returns for [`VirtualReplay`] (deterministic).
+//! * A seek rebuilds the state from the last message of each topic before the new position
+//!   (read backwards from it), and replaces the plot history with the samples up to it.
 //! * The model prediction is recomputed from the recorded thrust with the model the
 //!   session recorded (or model3).
+//! * The indexing pass also collects every event of the session (arm, disarm, holds,
+//!   alarms, notes, markers): the Replay tab's clickable index. Step and step back move
+//!   one control tick of the recording (its thrust commands' mean interval, from the
+//!   file's summary), rebuilt like a seek.
 
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
-use std::sync::atomic::Ordering;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{Receiver, RecvTimeoutError, TryRecvError};
+use std::sync::{Arc, Mutex};
+use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use rov_control::{ModelChoice, ModelSet};
-use rov_session::{Decoded, MessageRef, Playback, Session};
+use rov_session::{Decoded, Message, Playback, ReadOptions, Session, Topic};
 
 use crate::runtime::history::{History, HistorySample};
 use crate::runtime::predict::{Anchor, Predictor};
@@ -28,120 +39,43 @@ use crate::runtime::{
 };
 use rov_driver::MonoClock;
 
-/// Replays a session; see the module docs.
+/// Turn-count checkpoints are at least this far apart, s (a Pro 4 turns far less than
+/// 180° in that time, so the count between two checkpoints follows from the headings).
+const CHECKPOINT_S: f64 = 1.0;
+/// The indexing pass publishes its progress every this much session time, s.
+const PUBLISH_EVERY_S: f64 = 30.0;
+
+/// The topics the view pipeline uses.
+const PIPELINE_TOPICS: [Topic; 8] = [
+    Topic::Nav,
+    Topic::Status,
+    Topic::Thrust,
+    Topic::Pilot,
+    Topic::Autopilot,
+    Topic::Observer,
+    Topic::Link,
+    Topic::Events,
+];
+
+/// The pipeline fed with recorded messages, and the model prediction.
 #[derive(Debug)]
-pub(crate) struct ReplayEngine {
-    session: Arc<Session>,
-    player: Playback<Arc<Session>>,
+struct Feed {
     pipeline: Pipeline,
     predictor: Predictor,
     models: ModelSet,
     start_ns: u64,
     last_nav_s: Option<f64>,
-    full: History,
-    /// (t_s, turns, heading) at each navigation record, for seeks.
-    turns: Vec<(f64, f64, Option<f64>)>,
-    pending: Vec<HistorySample>,
-    replace: Option<History>,
-    warnings: Vec<String>,
-    /// Every event of the session.
-    index: Vec<IndexedEvent>,
-    /// One control tick of the recording, s.
-    tick_s: f64,
 }
 
-/// The control tick of a recording: the mean interval of its thrust commands (one per
-/// tick), 20 ms when it has too few.
-fn tick_of(session: &Session) -> f64 {
-    let times: Vec<u64> = session
-        .topic_messages(rov_session::record::TOPIC_THRUST)
-        .map(|m| m.t_ns)
-        .collect();
-    match (times.first(), times.last()) {
-        (Some(a), Some(b)) if times.len() > 10 && b > a => {
-            (b - a) as f64 * 1e-9 / (times.len() - 1) as f64
-        }
-        _ => 0.02,
-    }
-}
-
-/// Every event of a session, in time order (the replay's index).
-fn index_of(session: &Session, start_ns: u64) -> Vec<IndexedEvent> {
-    session
-        .records::<rov_session::EventRecord>()
-        .unwrap_or_default()
-        .into_iter()
-        .map(|(t, e)| IndexedEvent {
-            t_s: t.saturating_sub(start_ns) as f64 * 1e-9,
-            kind: e.kind,
-            severity: e.severity,
-            text: e.text,
-        })
-        .collect()
-}
-
-impl ReplayEngine {
-    pub fn open(path: &Path, models: ModelSet) -> Result<Self, RuntimeError> {
-        let session = Arc::new(rov_session::open(path)?);
-        let start_ns = session.start_ns().unwrap_or(0);
-        let mut warnings = session.warnings.clone();
-        // Events come when something happens: a gap in /events is not a fault (the
-        // reader's gap check is meant for the periodic topics).
-        warnings.retain(|w| !w.starts_with("/events: "));
-        if let Some(d) = session.damage() {
-            warnings.push(format!(
-                "the file is damaged ({d:?}); replaying what is intact"
-            ));
-        }
-        let mut e = Self {
-            session: Arc::clone(&session),
-            player: Playback::new(Arc::clone(&session)),
-            pipeline: Pipeline::new(Source::Replay(path.to_path_buf())),
+impl Feed {
+    fn new(source: Source, models: ModelSet, start_ns: u64) -> Self {
+        Self {
+            pipeline: Pipeline::new(source),
             predictor: Predictor::default(),
             models,
             start_ns,
             last_nav_s: None,
-            full: History::default(),
-            turns: Vec::new(),
-            pending: Vec::new(),
-            replace: None,
-            warnings,
-            index: index_of(&session, start_ns),
-            tick_s: tick_of(&session),
-        };
-        // One pass over the file: the full plot history and the turns at each sample.
-        let mut pass = Self {
-            session: Arc::clone(&session),
-            player: Playback::new(Arc::clone(&session)),
-            pipeline: Pipeline::new(Source::None),
-            predictor: Predictor::default(),
-            models: e.models.clone(),
-            start_ns,
-            last_nav_s: None,
-            full: History::default(),
-            turns: Vec::new(),
-            pending: Vec::new(),
-            replace: None,
-            warnings: Vec::new(),
-            index: Vec::new(),
-            tick_s: 0.02,
-        };
-        let mut full = History::default();
-        let mut turns = Vec::new();
-        for m in session.messages() {
-            if let Some(s) = pass.apply(&m) {
-                full.push(&s);
-                turns.push((
-                    s.t_s,
-                    pass.pipeline.view.turns,
-                    pass.pipeline.view.snapshot.heading_deg,
-                ));
-            }
         }
-        e.full = full;
-        e.turns = turns;
-        e.seek(0.0);
-        Ok(e)
     }
 
     fn t_s(&self, t_ns: u64) -> f64 {
@@ -149,7 +83,7 @@ impl ReplayEngine {
     }
 
     /// Feeds one message; returns the plot sample of a navigation record.
-    fn apply(&mut self, m: &MessageRef<'_>) -> Option<HistorySample> {
+    fn apply(&mut self, m: &Message) -> Option<HistorySample> {
         let t_s = self.t_s(m.t_ns);
         let Ok(d) = m.decode_any() else {
             return None;
@@ -195,37 +129,223 @@ impl ReplayEngine {
         }
         None
     }
+}
+
+/// What the indexing pass has computed so far.
+#[derive(Debug, Default)]
+struct IndexState {
+    /// The whole session's plot history up to `progress_s`.
+    full: History,
+    /// (t_s, turns, heading) at navigation records at least [`CHECKPOINT_S`] apart.
+    checkpoints: Vec<(f64, f64, Option<f64>)>,
+    /// Every event of the session indexed so far, in time order.
+    events: Vec<IndexedEvent>,
+    /// Session time indexed so far, s.
+    progress_s: f64,
+    done: bool,
+}
+
+/// The control tick of a recording: the mean interval of its thrust commands (one per
+/// tick), from the summary; 20 ms when it has too few.
+fn tick_of(session: &Session) -> f64 {
+    session
+        .topics()
+        .into_iter()
+        .find(|t| t.known == Some(Topic::Thrust))
+        .filter(|t| t.count > 10 && t.last_ns > t.first_ns)
+        .map_or(0.02, |t| {
+            (t.last_ns - t.first_ns) as f64 * 1e-9 / (t.count - 1) as f64
+        })
+}
+
+/// The indexing pass; see the module docs.
+fn index_session(
+    session: &Session,
+    models: ModelSet,
+    state: &Mutex<IndexState>,
+    cancel: &AtomicBool,
+) {
+    let start_ns = session.start_ns().unwrap_or(0);
+    let mut feed = Feed::new(Source::None, models, start_ns);
+    let names: Vec<&str> = PIPELINE_TOPICS.iter().map(|t| t.name()).collect();
+    let mut batch: Vec<HistorySample> = Vec::new();
+    let mut events: Vec<IndexedEvent> = Vec::new();
+    let mut checkpoints: Vec<(f64, f64, Option<f64>)> = Vec::new();
+    let mut last_cp = f64::NEG_INFINITY;
+    let mut last_publish = 0.0;
+    let mut t_now = 0.0;
+    let publish = |batch: &mut Vec<HistorySample>,
+                   cps: &mut Vec<(f64, f64, Option<f64>)>,
+                   evs: &mut Vec<IndexedEvent>,
+                   t: f64,
+                   done: bool| {
+        if let Ok(mut g) = state.lock() {
+            for s in batch.drain(..) {
+                g.full.push(&s);
+            }
+            g.checkpoints.append(cps);
+            g.events.append(evs);
+            g.progress_s = g.progress_s.max(t);
+            g.done = done;
+        }
+    };
+    for m in session.read(ReadOptions::topics(&names)) {
+        if cancel.load(Ordering::Relaxed) {
+            return;
+        }
+        t_now = feed.t_s(m.t_ns);
+        if m.known() == Some(Topic::Events)
+            && let Ok(Decoded::Event(e)) = m.decode_any()
+        {
+            events.push(IndexedEvent {
+                t_s: t_now,
+                kind: e.kind.clone(),
+                severity: e.severity,
+                text: e.text.clone(),
+            });
+        }
+        if let Some(s) = feed.apply(&m) {
+            batch.push(s);
+            if s.t_s - last_cp >= CHECKPOINT_S {
+                last_cp = s.t_s;
+                let v = &feed.pipeline.view;
+                checkpoints.push((s.t_s, v.turns, v.snapshot.heading_deg));
+            }
+        }
+        if t_now - last_publish >= PUBLISH_EVERY_S {
+            last_publish = t_now;
+            publish(&mut batch, &mut checkpoints, &mut events, t_now, false);
+        }
+    }
+    publish(&mut batch, &mut checkpoints, &mut events, t_now, true);
+}
+
+/// Wraps degrees to [−180, 180).
+fn wrap180(x: f64) -> f64 {
+    (x + 180.0).rem_euclid(360.0) - 180.0
+}
+
+/// Replays a session; see the module docs.
+#[derive(Debug)]
+pub(crate) struct ReplayEngine {
+    player: Playback,
+    feed: Feed,
+    index: Arc<Mutex<IndexState>>,
+    cancel: Arc<AtomicBool>,
+    indexer: Option<JoinHandle<()>>,
+    /// The plot history given at the last seek is partial (not yet indexed there).
+    stale_history: bool,
+    pending: Vec<HistorySample>,
+    replace: Option<History>,
+    warnings: Vec<String>,
+    /// One control tick of the recording, s.
+    tick_s: f64,
+}
+
+impl Drop for ReplayEngine {
+    fn drop(&mut self) {
+        self.cancel.store(true, Ordering::Relaxed);
+        if let Some(j) = self.indexer.take() {
+            let _ = j.join();
+        }
+    }
+}
+
+impl ReplayEngine {
+    /// Opens a session; `background`: index on a thread of its own (else before returning).
+    pub fn open(path: &Path, models: ModelSet, background: bool) -> Result<Self, RuntimeError> {
+        let session = rov_session::open(path)?;
+        let start_ns = session.start_ns().unwrap_or(0);
+        let mut warnings = session.warnings().to_vec();
+        // Events come when something happens: a gap in /events is not a fault (the
+        // reader's gap check is meant for the periodic topics).
+        warnings.retain(|w| !w.starts_with("/events: "));
+        let tick_s = tick_of(&session);
+        if let Some(d) = session.damage() {
+            warnings.push(format!(
+                "the file is damaged ({d}); replaying what is intact"
+            ));
+        }
+        let index = Arc::new(Mutex::new(IndexState::default()));
+        let cancel = Arc::new(AtomicBool::new(false));
+        let indexer = if background {
+            let (s, st, c, m) = (
+                session.clone(),
+                Arc::clone(&index),
+                Arc::clone(&cancel),
+                models.clone(),
+            );
+            Some(spawn_named("station-replay-index", move || {
+                index_session(&s, m, &st, &c);
+            })?)
+        } else {
+            index_session(&session, models.clone(), &index, &cancel);
+            None
+        };
+        let mut e = Self {
+            player: Playback::new(session),
+            feed: Feed::new(Source::Replay(path.to_path_buf()), models, start_ns),
+            index,
+            cancel,
+            indexer,
+            stale_history: false,
+            pending: Vec::new(),
+            replace: None,
+            warnings,
+            tick_s,
+        };
+        e.seek(0.0);
+        Ok(e)
+    }
 
     fn seek(&mut self, t_s: f64) {
         self.player.seek(t_s);
         let pos = self.player.position_s();
-        let source = self.pipeline.view.source.clone();
-        let events = std::mem::take(&mut self.pipeline.view.events);
-        self.pipeline = Pipeline::new(source);
-        self.pipeline.view.events = events;
-        self.predictor.reset();
-        self.last_nav_s = None;
-        let session = Arc::clone(&self.session);
-        let mut probe = Playback::new(&*session);
-        probe.seek(pos);
-        let latest = probe.latest_before();
+        let source = self.feed.pipeline.view.source.clone();
+        let events = std::mem::take(&mut self.feed.pipeline.view.events);
+        self.feed.pipeline = Pipeline::new(source);
+        self.feed.pipeline.view.events = events;
+        self.feed.predictor.reset();
+        self.feed.last_nav_s = None;
+        let latest = self.player.latest_before();
         for m in &latest {
-            let _ = self.apply(m);
+            let _ = self.feed.apply(m);
         }
-        let k = self.turns.partition_point(|(t, _, _)| *t <= pos);
-        if let Some(&(_, turns, heading)) = k.checked_sub(1).and_then(|i| self.turns.get(i)) {
-            self.pipeline.set_turns(turns, heading);
-        }
-        let r = self.full.range(f64::NEG_INFINITY, pos);
-        let mut h = History::with_capacity(self.full.capacity());
-        for i in r {
-            if let Some(s) = self.full.sample(i) {
-                h.push(&s);
+        let last_nav = latest
+            .iter()
+            .rev()
+            .find(|m| m.known() == Some(Topic::Nav))
+            .map(|m| self.feed.t_s(m.t_ns));
+        let mut h = History::default();
+        if let Ok(g) = self.index.lock() {
+            let indexed = g.done || g.progress_s >= pos;
+            // Tether turns at the last navigation record: from the checkpoint before it.
+            if let Some(t_nav) = last_nav
+                && indexed
+            {
+                let k = g.checkpoints.partition_point(|(t, _, _)| *t <= t_nav);
+                if let Some(&(_, turns, heading)) =
+                    k.checked_sub(1).and_then(|i| g.checkpoints.get(i))
+                {
+                    let now = self.feed.pipeline.view.snapshot.heading_deg;
+                    let extra = match (heading, now) {
+                        (Some(a), Some(b)) => wrap180(b - a) / 360.0,
+                        _ => 0.0,
+                    };
+                    self.feed.pipeline.set_turns(turns + extra, now);
+                }
             }
+            h = History::with_capacity(g.full.capacity());
+            for i in g.full.range(f64::NEG_INFINITY, pos) {
+                if let Some(s) = g.full.sample(i) {
+                    h.push(&s);
+                }
+            }
+            self.stale_history = !indexed;
         }
         self.pending.clear();
         self.replace = Some(h);
-        self.pipeline.set_time(pos);
+        self.feed.pipeline.set_time(pos);
     }
 
     pub fn command(&mut self, c: ReplayCommand) {
@@ -255,30 +375,63 @@ impl ReplayEngine {
     }
 
     pub fn advance(&mut self, dt_wall_s: f64) {
-        let range = self.player.advance(dt_wall_s);
-        let session = Arc::clone(&self.session);
-        for i in range {
-            if let Some(m) = session.message(i)
-                && let Some(s) = self.apply(&m)
-            {
+        for m in self.player.advance(dt_wall_s) {
+            if let Some(s) = self.feed.apply(&m) {
                 self.pending.push(s);
             }
         }
         let pos = self.player.position_s();
-        self.pipeline.set_time(pos);
+        self.feed.pipeline.set_time(pos);
+        // The indexing pass finished after a seek it had not reached: the full history up
+        // to the position replaces the partial one.
+        if self.stale_history
+            && let Some(g) = try_lock(&self.index)
+            && g.done
+        {
+            let mut h = History::with_capacity(g.full.capacity());
+            for i in g.full.range(f64::NEG_INFINITY, pos) {
+                if let Some(s) = g.full.sample(i) {
+                    h.push(&s);
+                }
+            }
+            drop(g);
+            self.pending.clear();
+            self.replace = Some(h);
+            self.stale_history = false;
+        }
     }
 
     pub fn publish(&mut self, shared: &Shared) {
-        let v = &mut self.pipeline.view;
+        let mut warnings = self.warnings.clone();
+        if let Some(d) = self.player.report().damage
+            && !warnings.iter().any(|w| w.contains("damaged"))
+        {
+            warnings.push(format!(
+                "the file is damaged ({d}); replaying what is intact"
+            ));
+        }
+        let index = self
+            .index
+            .lock()
+            .map(|g| g.events.clone())
+            .unwrap_or_default();
+        let (position_s, duration_s, playing, speed, messages) = (
+            self.player.position_s(),
+            self.player.duration_s(),
+            self.player.is_playing(),
+            self.player.speed(),
+            self.player.session().len(),
+        );
+        let v = &mut self.feed.pipeline.view;
         v.seq += 1;
         v.replay = Some(ReplayView {
-            position_s: self.player.position_s(),
-            duration_s: self.player.duration_s(),
-            playing: self.player.is_playing(),
-            speed: self.player.speed(),
-            messages: self.player.session().len(),
-            warnings: self.warnings.clone(),
-            index: self.index.clone(),
+            position_s,
+            duration_s,
+            playing,
+            speed,
+            messages,
+            warnings,
+            index,
             tick_s: self.tick_s,
         });
         if let Some(mut g) = try_lock(&shared.view) {
@@ -294,7 +447,7 @@ impl ReplayEngine {
 }
 
 pub(crate) fn start(path: &Path, models: ModelSet) -> Result<StationHandle, RuntimeError> {
-    let mut engine = ReplayEngine::open(path, models)?;
+    let mut engine = ReplayEngine::open(path, models, true)?;
     let shared = Arc::new(Shared::new(20_000, MonoClock::new()));
     let (tx, rx) = command_channel();
     engine.publish(&shared);
@@ -341,12 +494,12 @@ pub struct VirtualReplay {
 }
 
 impl VirtualReplay {
-    /// Opens a session paused at its start, and its handle.
+    /// Opens a session paused at its start (indexed before this returns), and its handle.
     ///
     /// # Errors
     /// [`RuntimeError::Session`] if the file does not open.
     pub fn open(path: &Path) -> Result<(Self, StationHandle), RuntimeError> {
-        let engine = ReplayEngine::open(path, ModelSet::load_default()?)?;
+        let engine = ReplayEngine::open(path, ModelSet::load_default()?, false)?;
         let shared = Arc::new(Shared::new(20_000, MonoClock::new()));
         let (tx, rx) = command_channel();
         let mut v = Self {

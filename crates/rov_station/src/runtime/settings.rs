@@ -200,7 +200,19 @@ pub fn save_gamepad(path: &Path, pad: &PadMap, shaping: &StickShaping) -> Result
 }
 
 fn save_tables(path: &Path, fresh: &str, tables: &[&str]) -> Result<(), String> {
-    let text = std::fs::read_to_string(path).unwrap_or_default();
+    // A missing file is created (with its folder: the user's configuration directory may
+    // not exist yet); a file that exists but cannot be read is never overwritten.
+    let text = match std::fs::read_to_string(path) {
+        Ok(t) => t,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+            if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+                std::fs::create_dir_all(dir)
+                    .map_err(|e| format!("{}: cannot create the folder: {e}", dir.display()))?;
+            }
+            String::new()
+        }
+        Err(e) => return Err(format!("{}: cannot read: {e}", path.display())),
+    };
     let mut doc: toml_edit::DocumentMut = text
         .parse()
         .map_err(|e| format!("{}: not valid TOML: {e}", path.display()))?;

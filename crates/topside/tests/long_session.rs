@@ -1,0 +1,124 @@
+//! Opening a long session the way each tool does, for the issue's 8-hour figures. Ignored
+//! by default (they need a long recording); point `TOPSIDE_LONG_SESSION` at one and run
+//! one test per process so the peak resident size is its own:
+//!
+//! ```sh
+//! topside record --sim --fast --duration-s 28800 --out /tmp/h8.mcap
+//! TOPSIDE_LONG_SESSION=/tmp/h8.mcap /usr/bin/time -v \
+//!   cargo test --release -p topside --test long_session -- --ignored --exact gui_replay_opens
+//! ```
+//!
+//! (`topside replay --headless` and `topside export` are measured on the binary itself.)
+
+use std::time::{Duration, Instant};
+
+use rov_station::runtime::{ReplayCommand, Runtime, RuntimeCommand};
+
+fn session() -> Option<std::path::PathBuf> {
+    let p = std::env::var_os("TOPSIDE_LONG_SESSION")?;
+    Some(p.into())
+}
+
+/// Peak resident set size so far, MB (Linux).
+fn peak_mb() -> f64 {
+    std::fs::read_to_string("/proc/self/status")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("VmHWM:"))
+                .and_then(|l| l.split_whitespace().nth(1))
+                .and_then(|v| v.parse::<f64>().ok())
+        })
+        .unwrap_or(0.0)
+        / 1024.0
+}
+
+/// The GUI's replay source: open, first view, a seek near the end, a second of play.
+#[test]
+#[ignore = "needs TOPSIDE_LONG_SESSION"]
+fn gui_replay_opens() {
+    let Some(path) = session() else {
+        eprintln!("TOPSIDE_LONG_SESSION is not set");
+        return;
+    };
+    let t0 = Instant::now();
+    let h = Runtime::replay(&path).unwrap();
+    while h.view().replay.is_none() {
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    let open_s = t0.elapsed().as_secs_f64();
+    let duration_s = h.view().replay.unwrap().duration_s;
+    let t1 = Instant::now();
+    let target = duration_s - 600.0;
+    h.command(RuntimeCommand::Replay(ReplayCommand::Seek(target)));
+    while h.view().replay.unwrap().position_s < target - 1.0 {
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    let seek_s = t1.elapsed().as_secs_f64();
+    h.command(RuntimeCommand::Replay(ReplayCommand::Play));
+    std::thread::sleep(Duration::from_secs(1));
+    let v = h.view();
+    eprintln!(
+        "GUI replay of {:.1} h: open (first view) {open_s:.3} s, seek to {:.2} h {seek_s:.3} s, \
+         depth shown {:?}, peak RSS {:.0} MB",
+        duration_s / 3600.0,
+        target / 3600.0,
+        v.snapshot.depth_m,
+        peak_mb()
+    );
+    assert!(v.snapshot.depth_m.is_some());
+    h.shutdown();
+    assert!(open_s < 2.0, "opening took {open_s} s");
+}
+
+/// The lab's loading of a session (cmd_lab::load_run / the GUI lab's load): the
+/// measurement rows, then the lab's run.
+#[test]
+#[ignore = "needs TOPSIDE_LONG_SESSION"]
+fn lab_loads() {
+    let Some(path) = session() else {
+        eprintln!("TOPSIDE_LONG_SESSION is not set");
+        return;
+    };
+    let t0 = Instant::now();
+    let s = rov_session::open(&path).unwrap();
+    let (series, _, _) = rov_session::measurements(&s).unwrap();
+    let read_s = t0.elapsed().as_secs_f64();
+    let read_mb = peak_mb();
+    let run = rov_lab::Run::from_series(&series, "long").unwrap();
+    eprintln!(
+        "lab load of {} rows: measurements {read_s:.2} s (peak {read_mb:.0} MB), run built at {:.2} s, peak RSS {:.0} MB",
+        series.rows.len(),
+        t0.elapsed().as_secs_f64(),
+        peak_mb()
+    );
+    assert_eq!(run.t.len(), series.rows.len());
+}
+
+/// The replay's indexing pass over the whole session (the plot history and tether turns
+/// for every position), run to the end as `VirtualReplay` does before it returns; the
+/// threaded replay runs it in the background after opening.
+#[test]
+#[ignore = "needs TOPSIDE_LONG_SESSION"]
+fn gui_replay_indexes_the_whole_session() {
+    let Some(path) = session() else {
+        eprintln!("TOPSIDE_LONG_SESSION is not set");
+        return;
+    };
+    let t0 = Instant::now();
+    let (mut r, h) = rov_station::runtime::VirtualReplay::open(&path).unwrap();
+    let index_s = t0.elapsed().as_secs_f64();
+    h.command(RuntimeCommand::Replay(ReplayCommand::Seek(7.5 * 3600.0)));
+    r.advance(0.0);
+    let mut hist = rov_station::runtime::History::default();
+    h.sync_history(&mut hist);
+    let (first, last) = hist.time_span().unwrap();
+    eprintln!(
+        "indexing pass over the session: {index_s:.1} s, peak RSS {:.0} MB; plot history after \
+         a seek to 7.5 h: {} samples from {first:.0} s to {last:.0} s (full rate from {:.0} s)",
+        peak_mb(),
+        hist.len(),
+        hist.full_rate_from_s().unwrap_or(0.0)
+    );
+    assert!(first < 60.0 && last > 7.4 * 3600.0);
+}
