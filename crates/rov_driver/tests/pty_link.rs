@@ -38,10 +38,15 @@ fn control_loop_over_pty_with_faults() {
     let v = vehicle(faults, WireTiming::default());
     let vehicle_thread = runner::spawn(v, Box::new(master), RunnerConfig::default());
 
-    // Generous response timeouts: a busy machine must not turn scheduling jitter into
-    // timeouts that no fault caused (the accounting below is exact).
+    // Generous response timeouts and deframer gap: a busy machine must not turn
+    // scheduling jitter into timeouts or stalled partial frames that no fault caused (the
+    // accounting below is exact). The injected fragment gaps are at most 2 ms, far below
+    // the 90 ms gap, so every fragmented reply must still be reassembled; CI under load
+    // (load average 8) saw the vehicle thread preempted for up to 107 ms between two
+    // fragments, which the default 10 ms gap counts as stalls.
     let cfg = LinkConfig {
         response_timeout_us: 100_000,
+        deframer_gap_us: 90_000,
         dump_timeout_us: 150_000,
         arm_min_healthy_us: 300_000,
         ..LinkConfig::default()
