@@ -64,7 +64,17 @@ pub fn run_blocking<T: Transport + ?Sized>(
     let mut buf = vec![0u8; 4096];
     let max_wait_us = u64::try_from(max_wait.as_micros()).unwrap_or(u64::MAX);
     loop {
-        let now = clock.now_us();
+        let mut now = clock.now_us();
+        if link.next_timeout().is_some_and(|t| t <= now) {
+            // A deadline passed while this thread was away (preempted, or busy in
+            // `on_iteration`): take the bytes the OS already holds first, so a reply that
+            // arrived meanwhile is not judged a stalled frame or a timeout.
+            let n = transport.recv(&mut buf, Duration::ZERO)?;
+            if n > 0 {
+                now = clock.now_us();
+                link.handle_input(buf.get(..n).unwrap_or_default(), now);
+            }
+        }
         link.handle_timeout(now);
         while let Some(frame) = link.poll_transmit(now) {
             transport.send(frame)?;

@@ -97,11 +97,16 @@ pub fn assert_accounting(c: &LinkCounters, f: &FaultCounts, comm_errors: u16) {
     assert_eq!(c.failed_header_check, f.flipped_header, "{msg}");
     assert_eq!(c.failed_ext_length, f.flipped_ext, "{msg}");
     assert_eq!(c.failed_total_check, f.flipped_total, "{msg}");
-    // Garbage (no sync bytes), fragmentation and delay are not failures.
-    assert_eq!(
-        c.failed_sync + c.failed_stall + c.failed_unexpected,
-        0,
-        "{msg}"
+    // Garbage (no sync bytes), fragmentation and delay are not failures. One exception
+    // the test cannot control: the vehicle thread writes a reply in 8-byte batches on
+    // the baud schedule, and on a loaded machine (CI saw load average 10 on 2 cores) the
+    // OS can preempt it for longer than the deframer gap between two batches. The link
+    // then rightly abandons that partial frame as stalled. Allow at most 2 % of the
+    // replies to end that way, and keep the rest of the accounting exact around them.
+    assert_eq!(c.failed_sync + c.failed_unexpected, 0, "{msg}");
+    assert!(
+        c.failed_stall * 50 <= f.replies,
+        "more stalls than scheduling jitter explains: {msg}"
     );
     assert_eq!(c.unexpected_frames, 0, "{msg}");
     assert!(c.deframer.garbage_bytes >= f.garbage_bytes, "{msg}");
@@ -109,7 +114,7 @@ pub fn assert_accounting(c: &LinkCounters, f: &FaultCounts, comm_errors: u16) {
     assert_eq!(u64::from(comm_errors), f.requests_corrupted, "{msg}");
     // Every reply that left intact was matched.
     assert_eq!(
-        c.responses,
+        c.responses + c.failed_stall,
         f.replies - f.replies_dropped - f.flipped(),
         "{msg}"
     );
