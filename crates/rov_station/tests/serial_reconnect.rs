@@ -665,5 +665,7 @@ fn pty_recreated_at_another_path_found_by_id() {
 #[test]
 fn pty_recreated_at_another_path_found_by_probing() {
     let f = scenario("scan", Comeback::Scan);
-    assert!(f.reconnect_ms <= 3_000.0, "{}", f.reconnect_ms);
+    // Probing pings each candidate; on a loaded machine (CI at load average 10) one ping
+    // can go unanswered in its window and the next attempt comes 1 s later by the backoff.
+    assert!(f.reconnect_ms <= 4_500.0, "{}", f.reconnect_ms);
 }

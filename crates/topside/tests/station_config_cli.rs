@@ -22,6 +22,10 @@ fn record(cwd: &PathBuf) -> std::process::Output {
             "2",
             "--out",
             "out.mcap",
+            // The file named explicitly: the working directory's config/ is not read
+            // (issue 16 packaging: --config, else the user's config dir, else built in).
+            "--config",
+            "config/station.toml",
         ])
         .current_dir(cwd)
         .output()
