@@ -3,6 +3,7 @@
 //! parameters. Each has a key (used in JSON and in saved models), a unit, bounds, the
 //! value that turns its effect off, and a typical magnitude used to probe sensitivities.
 
+use rov_dynamics::models::Channel;
 use serde::Serialize;
 
 use crate::catalog::EffectId;
@@ -343,6 +344,35 @@ impl Param {
         }
     }
 
+    /// The channels where this effect parameter's own signature lives (`None` for base
+    /// parameters and parameters that act on every thruster axis).
+    pub fn home_channels(self) -> Option<&'static [Channel]> {
+        use Channel::*;
+        Some(match self {
+            Param::ReverseRatio(Thr::Vertical) | Param::DragRatio(Axis::Heave) => &[Depth, Heave],
+            Param::ReverseRatio(_) => &[Heading, YawRate, Surge],
+            Param::TorqueV
+            | Param::DragRatio(Axis::Yaw)
+            | Param::CompassSin
+            | Param::CompassCos
+            | Param::Emi(_) => &[Heading, YawRate],
+            Param::TorqueH | Param::ArmYv | Param::CgY | Param::BiasRoll => &[Roll, RollRate],
+            Param::ArmZh | Param::ArmXv | Param::CgX | Param::BiasPitch => &[Pitch, PitchRate],
+            _ => return None,
+        })
+    }
+
+    /// Extra starting values tried for a parameter whose cost has kinks (a budget that
+    /// binds only above some demand, a dead zone, a lag): one start per value.
+    pub fn start_spread(self) -> &'static [f64] {
+        match self {
+            Param::PowerMax => &[0.3, 0.6, 1.0, 1.5],
+            Param::Deadzone => &[0.05, 0.12, 0.2],
+            Param::LagTau => &[0.1, 0.3],
+            _ => &[],
+        }
+    }
+
     /// Value shown to people (unit conversions for readability) and its unit.
     pub fn display(self, value: f64) -> (f64, &'static str) {
         match self {
@@ -389,4 +419,36 @@ pub fn effect_params(effect: EffectId) -> Vec<Param> {
         ],
         EffectId::AttitudeBias => vec![Param::BiasRoll, Param::BiasPitch],
     }
+}
+
+/// Base parameters acting on the axes of some channels.
+pub fn axis_params_of(chans: &[Channel]) -> Vec<Param> {
+    let mut v = Vec::new();
+    for ch in chans {
+        let ps: &[Param] = match ch {
+            Channel::Depth | Channel::Heave => &[
+                Param::ThrustLin(Thr::Vertical),
+                Param::ThrustQuad(Thr::Vertical),
+                Param::DragLin(Axis::Heave),
+                Param::DragQuad(Axis::Heave),
+            ],
+            Channel::Heading | Channel::YawRate => &[
+                Param::ThrustLin(Thr::Port),
+                Param::ThrustQuad(Thr::Port),
+                Param::ThrustLin(Thr::Starboard),
+                Param::ThrustQuad(Thr::Starboard),
+                Param::DragLin(Axis::Yaw),
+                Param::DragQuad(Axis::Yaw),
+            ],
+            Channel::Pitch | Channel::PitchRate => &[Param::DragLin(Axis::Pitch), Param::CgZ],
+            Channel::Roll | Channel::RollRate => &[Param::DragLin(Axis::Roll), Param::CgZ],
+            _ => &[],
+        };
+        for p in ps {
+            if !v.contains(p) {
+                v.push(*p);
+            }
+        }
+    }
+    v
 }

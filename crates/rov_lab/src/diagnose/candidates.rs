@@ -1,0 +1,208 @@
+//! Which catalog effects are candidates for a model and data: applicable, testable with
+//! the data's channels and excitation, or already contained in the base.
+
+use std::collections::BTreeMap;
+
+use rov_dynamics::models::Channel;
+
+use crate::calibrate::excited;
+use crate::catalog::EffectId;
+use crate::data::{Run, SegmentKind};
+use crate::model::{BaseKind, LabModel};
+use crate::params::{Axis, Param, Thr, effect_params};
+
+use super::*;
+
+#[derive(Debug, Clone)]
+pub(super) struct Candidate {
+    pub(super) effect: EffectId,
+    pub(super) params: Vec<Param>,
+    pub(super) contained: bool,
+}
+
+pub(super) enum Availability {
+    Candidate(Candidate),
+    NotApplicable(String),
+    NotTestable(String),
+    Contained(String),
+}
+
+pub(super) fn any_cmd(runs: &[Run], f: impl Fn(&rov_dynamics::ThrustPct) -> bool) -> bool {
+    runs.iter().any(|r| r.cmd.iter().any(&f))
+}
+
+pub(super) fn measured(model: &LabModel, runs: &[Run], ch: Channel) -> bool {
+    model.predicts_channel(ch) && runs.iter().any(|r| r.has(ch))
+}
+
+/// Whether a parameter is excited by the data (beyond [`excited`]'s base rules).
+pub(super) fn effect_param_testable(model: &LabModel, runs: &[Run], p: Param) -> bool {
+    let depth = measured(model, runs, Channel::Depth) || measured(model, runs, Channel::Heave);
+    let heading =
+        measured(model, runs, Channel::Heading) || measured(model, runs, Channel::YawRate);
+    let pitch = measured(model, runs, Channel::Pitch) || measured(model, runs, Channel::PitchRate);
+    let roll = measured(model, runs, Channel::Roll) || measured(model, runs, Channel::RollRate);
+    let on = |x: f64| x.abs() >= 5.0;
+    match p {
+        Param::ReverseRatio(t) => {
+            let rev = runs.iter().any(|r| r.reverse_present()[t.index()]);
+            rev && match t {
+                Thr::Vertical => depth,
+                _ => heading,
+            }
+        }
+        Param::LagTau => runs.iter().any(|r| r.segments.len() > 2) && (depth || heading),
+        Param::Deadzone => any_cmd(runs, |c| on(c.port) || on(c.starboard) || on(c.vertical)),
+        Param::PowerMax => any_cmd(runs, |c| {
+            let n = [c.port, c.starboard, c.vertical]
+                .iter()
+                .filter(|x| on(**x))
+                .count();
+            n >= 2
+        }),
+        Param::ArmZh => pitch && any_cmd(runs, |c| on(c.port) && on(c.starboard)),
+        Param::ArmXv => pitch && any_cmd(runs, |c| on(c.vertical)),
+        Param::ArmYv => roll && any_cmd(runs, |c| on(c.vertical)),
+        Param::TorqueV => heading && any_cmd(runs, |c| on(c.vertical)),
+        Param::TorqueH => roll && any_cmd(runs, |c| on(c.port - c.starboard)),
+        Param::NetWeight => depth,
+        Param::CgX => pitch,
+        Param::CgY => roll,
+        Param::TrimDeg => {
+            depth
+                && runs
+                    .iter()
+                    .any(|r| r.segments.iter().any(|s| s.kind == SegmentKind::Surge))
+        }
+        Param::DragRatio(Axis::Heave) => depth && any_cmd(runs, |c| c.vertical <= -5.0),
+        Param::DragRatio(Axis::Yaw) => heading && any_cmd(runs, |c| on(c.port - c.starboard)),
+        Param::DragRatio(_) => false,
+        Param::CurrentN | Param::CurrentE => {
+            measured(model, runs, Channel::North)
+                || measured(model, runs, Channel::East)
+                || measured(model, runs, Channel::Surge)
+                || measured(model, runs, Channel::Sway)
+        }
+        Param::TetherN | Param::TetherE => heading,
+        Param::DepthDrift => measured(model, runs, Channel::Depth),
+        Param::CompassSin | Param::CompassCos => measured(model, runs, Channel::Heading),
+        Param::Emi(t) => {
+            measured(model, runs, Channel::Heading)
+                && any_cmd(runs, |c| match t {
+                    Thr::Port => on(c.port),
+                    Thr::Starboard => on(c.starboard),
+                    Thr::Vertical => on(c.vertical),
+                })
+        }
+        Param::BiasRoll => measured(model, runs, Channel::Roll),
+        Param::BiasPitch => measured(model, runs, Channel::Pitch),
+        Param::AddedMass(_) => depth || heading,
+        _ => excited(model, runs, p),
+    }
+}
+
+pub(super) fn availability(model: &LabModel, runs: &[Run], e: EffectId) -> Availability {
+    let kind = model.kind();
+    if let Some(reason) = kind.not_applicable(e) {
+        return Availability::NotApplicable(format!("not testable with {}: {reason}", kind.name()));
+    }
+    match e {
+        EffectId::Coriolis => {
+            return Availability::Contained(format!(
+                "{} already contains it; its coefficients follow from the mass, added mass and CG",
+                kind.name()
+            ));
+        }
+        EffectId::AddedMass => {
+            return Availability::Contained(format!(
+                "{} already contains it; with motion data only, added mass, thrust gain and damping are determined up to a common scale, so it is kept fixed and the calibration's thrust and damping carry the scale",
+                kind.name()
+            ));
+        }
+        EffectId::PitchDepthCoupling if kind == BaseKind::Model3 => {
+            return Availability::Contained(
+                "model3's 6-DOF kinematics already carry it; a trim angle shows up as restoring-offset"
+                    .into(),
+            );
+        }
+        _ => {}
+    }
+    let params: Vec<Param> = effect_params(e)
+        .into_iter()
+        .filter(|p| model.applicable(*p) && effect_param_testable(model, runs, *p))
+        .collect();
+    if params.is_empty() {
+        let why = match e {
+            EffectId::Current => "not testable with this data: a constant current only shows in earth-fixed position (north/east) or body velocity (surge/sway), and the data has none of them; depth, heading, pitch and roll cannot reveal it".to_string(),
+            _ => format!("not testable with this data: it needs {}", e.info().needs),
+        };
+        return Availability::NotTestable(why);
+    }
+    Availability::Candidate(Candidate {
+        effect: e,
+        params,
+        contained: kind.contains(e),
+    })
+}
+
+pub(super) fn probe_value(model: &LabModel, runs: &[Run], p: Param) -> f64 {
+    if p == Param::PowerMax {
+        // Below the largest combined demand in the data.
+        let mut dmax: f64 = 0.0;
+        for r in runs {
+            for c in &r.cmd {
+                let d = (c.port * 0.01).abs().powi(3)
+                    + (c.starboard * 0.01).abs().powi(3)
+                    + (c.vertical * 0.01).abs().powi(3);
+                dmax = dmax.max(d);
+            }
+        }
+        return (0.6 * dmax).max(0.05);
+    }
+    let cur = model.get(p).or_else(|| p.off_value()).unwrap_or(0.0);
+    match p.off_value() {
+        Some(off) => cur + (p.probe_value() - off),
+        None => cur + p.meta().scale * 4.0,
+    }
+}
+
+pub(super) fn candidates_of(
+    model: &LabModel,
+    train: &[Run],
+    skip: &[EffectId],
+) -> (Vec<Candidate>, Vec<Finding>) {
+    let mut cands = Vec::new();
+    let mut other = Vec::new();
+    for e in EffectId::ALL {
+        if skip.contains(&e) {
+            continue;
+        }
+        let blank = |status: Status, expl: String, contained: bool| Finding {
+            effect: e.key().into(),
+            significant: false,
+            status,
+            contained,
+            channels: vec![],
+            view: String::new(),
+            validation_rmse_reduction_pct: BTreeMap::new(),
+            validation_rmse_reduction_pct_free_run: BTreeMap::new(),
+            validation_rmse_reduction_pct_shooting: BTreeMap::new(),
+            params: BTreeMap::new(),
+            explanation: expl,
+            delta_bic: None,
+            score: 0.0,
+            ambiguous_with: vec![],
+            separating_experiment: None,
+            round: 0,
+        };
+        match availability(model, train, e) {
+            Availability::Candidate(c) => cands.push(c),
+            Availability::NotApplicable(s) => other.push(blank(Status::NotApplicable, s, false)),
+            Availability::NotTestable(s) => {
+                other.push(blank(Status::NotTestable, s, model.kind().contains(e)))
+            }
+            Availability::Contained(s) => other.push(blank(Status::Contained, s, true)),
+        }
+    }
+    (cands, other)
+}

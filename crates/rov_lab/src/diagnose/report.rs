@@ -1,0 +1,171 @@
+//! The diagnosis report: findings (evidence cards), statuses, baselines.
+
+use std::collections::BTreeMap;
+
+use crate::calibrate::{FittedParam, View};
+use crate::catalog::EffectId;
+use crate::evaluate::Evaluation;
+use crate::model::LabModel;
+
+use super::*;
+
+/// Status of a finding.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Status {
+    /// Accepted: significant on held-out data.
+    Significant,
+    /// Significant but indistinguishable from another candidate on this data.
+    Ambiguous,
+    /// Fitted in simulation; did not pass the held-out tests.
+    NotSignificant,
+    /// Screened only; too little evidence to confirm.
+    Screened,
+    /// The data cannot excite it.
+    NotTestable,
+    /// The model cannot represent it.
+    NotApplicable,
+    /// Already in the model; its parameters are calibrated or fixed as documented.
+    Contained,
+}
+
+/// A parameter in a report.
+#[derive(Debug, Clone, Serialize)]
+pub struct ParamReport {
+    /// Value (display unit).
+    pub value: f64,
+    /// Standard deviation (display unit), if known.
+    pub std: Option<f64>,
+    /// Display unit.
+    pub unit: String,
+}
+
+/// One effect's evidence card.
+#[derive(Debug, Clone, Serialize)]
+pub struct Finding {
+    /// Effect ID.
+    pub effect: String,
+    /// Whether it was accepted.
+    pub significant: bool,
+    /// Status.
+    pub status: Status,
+    /// Whether the base model already contains it (a refit, not an addition).
+    pub contained: bool,
+    /// Channels it explains.
+    pub channels: Vec<String>,
+    /// Error view of `validation_rmse_reduction_pct`: "shooting" (multiple shooting) or
+    /// "free_run", whichever shows the finding's home channels falling more. Every
+    /// candidate is judged on both views alike.
+    pub view: String,
+    /// Held-out RMSE reduction per predicted channel in `view`, %.
+    pub validation_rmse_reduction_pct: BTreeMap<String, f64>,
+    /// Held-out free-run RMSE reduction per predicted channel, %.
+    pub validation_rmse_reduction_pct_free_run: BTreeMap<String, f64>,
+    /// Held-out multiple-shooting RMSE reduction per predicted channel, %.
+    pub validation_rmse_reduction_pct_shooting: BTreeMap<String, f64>,
+    /// Fitted parameters.
+    pub params: BTreeMap<String, ParamReport>,
+    /// Plain explanation.
+    pub explanation: String,
+    /// Training ΔBIC (effective sample size), if fitted or screened.
+    pub delta_bic: Option<f64>,
+    /// Evidence score (held-out noise-normalised RMSE reduction summed over channels).
+    pub score: f64,
+    /// Effects it cannot be told apart from on this data.
+    pub ambiguous_with: Vec<String>,
+    /// The experiment that would separate it from those.
+    pub separating_experiment: Option<String>,
+    /// Greedy round in which it was evaluated (1-based; 0 = not evaluated).
+    pub round: usize,
+}
+
+/// Per-channel baseline numbers.
+#[derive(Debug, Clone, Serialize)]
+pub struct BaselineChannel {
+    /// Fit % (multiple shooting), `None` for low excitation.
+    pub fit_pct: Option<f64>,
+    /// RMSE (multiple shooting).
+    pub rmse_shooting: f64,
+    /// Fit % (free run).
+    pub fit_pct_free_run: Option<f64>,
+    /// RMSE (free run).
+    pub rmse: f64,
+    /// Noise floor estimated from the data.
+    pub noise: f64,
+}
+
+/// Held-out RMSE per channel in both views.
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct RmseMaps {
+    /// Multiple shooting.
+    pub shooting: BTreeMap<String, f64>,
+    /// Free run.
+    pub free_run: BTreeMap<String, f64>,
+}
+
+/// Result of [`diagnose`].
+#[derive(Debug, Clone)]
+pub struct Diagnosis {
+    /// Model name as given.
+    pub model: String,
+    /// Calibrated base on the held-out runs.
+    pub baseline: BTreeMap<String, BaselineChannel>,
+    /// Channels the model does not predict (measured in the data).
+    pub not_predicted: Vec<String>,
+    /// Calibration parameters.
+    pub calibration: Vec<FittedParam>,
+    /// Findings, best first.
+    pub findings: Vec<Finding>,
+    /// Accepted effects, in order.
+    pub accepted: Vec<EffectId>,
+    /// The calibrated base.
+    pub calibrated: LabModel,
+    /// The calibrated base plus the accepted effects, refitted.
+    pub final_model: LabModel,
+    /// Held-out RMSE per channel after each accepted addition (first = base).
+    pub error_fall: Vec<(String, RmseMaps)>,
+    /// One-line summary ("nothing significant", "found …").
+    pub summary: String,
+}
+
+pub(super) fn param_reports(c: &Confirmed) -> BTreeMap<String, ParamReport> {
+    let mut out = BTreeMap::new();
+    for p in &c.params {
+        if let Some(i) = c.fit.params.iter().position(|x| x == p)
+            && let Some(f) = c.fit.fitted.get(i)
+        {
+            out.insert(
+                f.key.clone(),
+                ParamReport {
+                    value: f.value,
+                    std: f.std.is_finite().then_some(f.std),
+                    unit: f.unit.clone(),
+                },
+            );
+        }
+    }
+    out
+}
+
+pub(super) fn view_name(v: View) -> &'static str {
+    match v {
+        View::FreeRun => "free_run",
+        View::Shooting(_) => "shooting",
+        View::KStep(_) => "k_step",
+    }
+}
+
+pub(super) fn rmse_map(e: &Evaluation) -> RmseMaps {
+    RmseMaps {
+        shooting: e
+            .channels
+            .iter()
+            .map(|(k, c)| (k.name().to_string(), c.shooting.rmse))
+            .collect(),
+        free_run: e
+            .channels
+            .iter()
+            .map(|(k, c)| (k.name().to_string(), c.free_run.rmse))
+            .collect(),
+    }
+}
