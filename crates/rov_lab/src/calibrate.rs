@@ -262,20 +262,51 @@ pub struct Calibration {
     pub scales: ChannelScales,
 }
 
-/// Whether a parameter can be excited by the data (thruster used, channel measured).
-pub fn excited(model: &LabModel, runs: &[Run], p: Param) -> bool {
-    let used = |t: Thr| {
-        runs.iter().any(|r| {
-            r.cmd.iter().any(|c| {
-                let v = match t {
-                    Thr::Port => c.port,
-                    Thr::Starboard => c.starboard,
-                    Thr::Vertical => c.vertical,
-                };
-                v.abs() >= 5.0
+/// Whether some thruster of group `g` runs in the data (|command| ≥ 5 %); with
+/// `reverse`, runs in reverse.
+pub fn group_used(model: &LabModel, runs: &[Run], g: Thr, reverse: bool) -> bool {
+    if !model.has_group(g) {
+        return false;
+    }
+    let n = model.n_thrusters();
+    runs.iter().any(|r| {
+        r.inputs.iter().any(|c| {
+            let t = model.thruster_targets(c);
+            (0..n).any(|i| {
+                model.thruster_group(i) == g
+                    && if reverse {
+                        t[i] <= -5.0
+                    } else {
+                        t[i].abs() >= 5.0
+                    }
             })
         })
-    };
+    })
+}
+
+/// Whether the data drives a group's thrusters with both signs at once on different
+/// thrusters or differentially (a yaw or roll demand): some sample has two thrusters of
+/// the group (or the Pro 4's port and starboard) commanded apart by at least 5 %.
+pub fn differential_used(model: &LabModel, runs: &[Run]) -> bool {
+    let n = model.n_thrusters();
+    runs.iter().any(|r| {
+        r.inputs.iter().any(|c| {
+            let t = model.thruster_targets(c);
+            (0..n).any(|i| {
+                (0..n).any(|j| {
+                    i < j
+                        && model.thruster_group(i) != Thr::Vertical
+                        && model.thruster_group(j) != Thr::Vertical
+                        && (t[i] - t[j]).abs() >= 5.0
+                })
+            })
+        })
+    })
+}
+
+/// Whether a parameter can be excited by the data (thruster used, channel measured).
+pub fn excited(model: &LabModel, runs: &[Run], p: Param) -> bool {
+    let used = |t: Thr| group_used(model, runs, t, false);
     let has = |ch: Channel| runs.iter().any(|r| r.has(ch)) && model.predicts_channel(ch);
     let heading_or_rate = has(Channel::Heading) || has(Channel::YawRate);
     match p {
@@ -296,7 +327,8 @@ pub fn excited(model: &LabModel, runs: &[Run], p: Param) -> bool {
         },
         Param::CgZ => has(Channel::Pitch) || has(Channel::Roll),
         Param::AddedMass(Axis::Sway) => {
-            (has(Channel::Roll) || has(Channel::Heading)) && model.kind() == crate::BaseKind::Model3
+            (has(Channel::Roll) || has(Channel::Heading) || has(Channel::Sway))
+                && model.has_attitude()
         }
         Param::AddedMass(Axis::Roll) => has(Channel::Roll),
         Param::AddedMass(Axis::Pitch) => has(Channel::Pitch),
@@ -359,7 +391,7 @@ pub fn fit_scaled(
                 .unwrap_or_else(|| "(no runs)".into()),
             detail: format!(
                 "no channel is both measured and predicted by {}",
-                model.kind().name()
+                model.base_name()
             ),
         });
     }
@@ -372,7 +404,7 @@ pub fn fit_scaled(
     let lm = minimize_with(&f, &start, &bounds, opts, j0).ok_or_else(|| LabError::Model {
         detail: format!(
             "{} cannot be simulated on the data from its starting parameters",
-            model.kind().name()
+            model.base_name()
         ),
     })?;
     let fitted_model = model.with(free, &lm.x)?;
@@ -420,7 +452,6 @@ pub fn calibrate(
     opts: &LmOptions,
 ) -> Result<Calibration, LabError> {
     let free: Vec<Param> = model
-        .kind()
         .calibration_params()
         .into_iter()
         .filter(|p| excited(model, runs, *p))

@@ -6,6 +6,7 @@
 //! to commands 0..k−1 only; [`crate::sim`] follows exactly this.
 
 use rov_dynamics::models::Channel;
+use rov_dynamics::models::vehicle::{CommandChannel, Commands, N_COMMANDS};
 use rov_dynamics::thrusters::ThrustPct;
 use rov_types::measurement::{MeasurementSeries, OptionalChannel};
 use serde::Serialize;
@@ -177,8 +178,14 @@ pub struct Run {
     pub name: String,
     /// Sample times, s.
     pub t: Vec<f64>,
-    /// Commands held from each sample.
+    /// The Pro 4 thruster commands held from each sample (port, starboard, vertical).
     pub cmd: Vec<ThrustPct>,
+    /// Every command channel held from each sample (percent; [`CommandChannel`] order):
+    /// the Pro 4's three thrusters, and any other channel the data has (a lateral
+    /// thruster, a vehicle's body-axis demands).
+    pub inputs: Vec<Commands>,
+    /// Which command channels the data holds.
+    pub input_present: [bool; N_COMMANDS],
     /// Measured channels (heading unwrapped, deg); NaN = missing sample.
     pub y: [Option<Vec<f64>>; N_CHANNELS],
     /// Locally smoothed channels (quadratic fit over ±0.3 s), for re-initialisation.
@@ -476,10 +483,21 @@ impl Run {
             opt_or(Channel::YawRate, slope(Channel::Heading)).to_radians(),
         ];
         let segments = segments_of(&t, &cmd);
+        let inputs: Vec<Commands> = cmd.iter().map(commands_of_pct).collect();
+        let mut input_present = [false; N_COMMANDS];
+        for c in [
+            CommandChannel::Port,
+            CommandChannel::Starboard,
+            CommandChannel::Vertical,
+        ] {
+            input_present[c.index()] = true;
+        }
         Ok(Self {
             name: name.into(),
             t,
             cmd,
+            inputs,
+            input_present,
             y,
             smooth,
             noise,
@@ -570,6 +588,15 @@ impl Run {
         }
         r
     }
+}
+
+/// A Pro 4 command as a command vector (the port, starboard and vertical channels).
+pub fn commands_of_pct(c: &ThrustPct) -> Commands {
+    let mut out = [0.0; N_COMMANDS];
+    out[CommandChannel::Port.index()] = c.port;
+    out[CommandChannel::Starboard.index()] = c.starboard;
+    out[CommandChannel::Vertical.index()] = c.vertical;
+    out
 }
 
 /// Constant-command segments (a change of more than 0.5 % starts a new one).

@@ -125,16 +125,15 @@ pub fn fit_with_effects(
 ) -> Result<(LabModel, Vec<FittedParam>), LabError> {
     let mut m = model.clone();
     let mut free: Vec<Param> = model
-        .kind()
         .calibration_params()
         .into_iter()
         .filter(|p| crate::calibrate::excited(model, runs, *p))
         .collect();
     for e in effects {
-        if let Some(reason) = model.kind().not_applicable(*e) {
+        if let Some(reason) = model.not_applicable(*e) {
             return Err(LabError::NotApplicable {
                 effect: e.key().into(),
-                model: model.kind().name().into(),
+                model: model.base_name().into(),
                 reason: reason.into(),
             });
         }
@@ -440,10 +439,10 @@ pub fn add(
         ..Default::default()
     };
     for e in effects {
-        if let Some(reason) = model.kind().not_applicable(*e) {
+        if let Some(reason) = model.not_applicable(*e) {
             return Err(LabError::NotApplicable {
                 effect: e.key().into(),
-                model: model.kind().name().into(),
+                model: model.base_name().into(),
                 reason: reason.into(),
             });
         }
@@ -491,7 +490,7 @@ pub fn add(
         effects: effects.iter().map(|e| e.key().to_string()).collect(),
         refitted_contained: effects
             .iter()
-            .filter(|e| model.kind().contains(**e))
+            .filter(|e| model.contains(**e))
             .map(|e| e.key().to_string())
             .collect(),
         before: summarize(&base_eval),

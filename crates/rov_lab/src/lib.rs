@@ -29,6 +29,7 @@ pub mod params;
 pub mod persist;
 pub mod plots;
 pub mod sim;
+pub mod terms;
 
 pub use catalog::{EffectId, parse_effect_list};
 pub use data::Run;

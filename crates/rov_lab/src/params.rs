@@ -8,36 +8,9 @@ use serde::Serialize;
 
 use crate::catalog::EffectId;
 
-/// A thruster.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Thr {
-    /// Port horizontal.
-    Port,
-    /// Starboard horizontal.
-    Starboard,
-    /// Vertical.
-    Vertical,
-}
-
-impl Thr {
-    /// All three, in command order.
-    pub const ALL: [Thr; 3] = [Thr::Port, Thr::Starboard, Thr::Vertical];
-
-    /// Index 0..3.
-    pub fn index(self) -> usize {
-        self as usize
-    }
-
-    /// Lower-case name.
-    pub fn name(self) -> &'static str {
-        match self {
-            Thr::Port => "port",
-            Thr::Starboard => "starboard",
-            Thr::Vertical => "vertical",
-        }
-    }
-}
+/// A thruster group (the Pro 4's port, starboard and vertical thrusters, or a vehicle
+/// file's groups): the unit of thrust calibration and of per-thruster effects.
+pub use rov_dynamics::models::vehicle::ThrusterGroup as Thr;
 
 /// A body degree of freedom (Fossen order).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]
@@ -58,6 +31,16 @@ pub enum Axis {
 }
 
 impl Axis {
+    /// All six, in Fossen order.
+    pub const ALL: [Axis; 6] = [
+        Axis::Surge,
+        Axis::Sway,
+        Axis::Heave,
+        Axis::Roll,
+        Axis::Pitch,
+        Axis::Yaw,
+    ];
+
     /// Index 0..6.
     pub fn index(self) -> usize {
         self as usize
@@ -81,7 +64,7 @@ impl Axis {
 }
 
 /// A scalar parameter of a lab model.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum Param {
     /// Scale of a thruster's linear thrust coefficient (calibration).
     ThrustLin(Thr),
@@ -143,6 +126,9 @@ pub enum Param {
     BiasRoll,
     /// Pitch reading offset, deg.
     BiasPitch,
+    /// Coefficient of discovered term i, normalised: N (or N m, `true` = rotational DOF)
+    /// at the term's typical regressor size (see [`crate::terms::Term`]).
+    TermCoef(u8, bool),
 }
 
 /// Static facts about a parameter.
@@ -192,6 +178,7 @@ impl Param {
             Param::Emi(t) => format!("compass_interference_{}_deg", t.name()),
             Param::BiasRoll => "roll_bias_deg".into(),
             Param::BiasPitch => "pitch_bias_deg".into(),
+            Param::TermCoef(i, _) => format!("term_{i}_coefficient"),
         }
     }
 
@@ -283,6 +270,8 @@ impl Param {
             Param::CompassSin | Param::CompassCos => m(-30.0, 30.0, 1.0, "deg"),
             Param::Emi(_) => m(-30.0, 30.0, 1.0, "deg"),
             Param::BiasRoll | Param::BiasPitch => m(-15.0, 15.0, 0.3, "deg"),
+            Param::TermCoef(_, false) => m(-200.0, 200.0, 0.05, "N"),
+            Param::TermCoef(_, true) => m(-20.0, 20.0, 0.005, "N m"),
         }
     }
 
@@ -340,6 +329,13 @@ impl Param {
             Param::CompassSin | Param::CompassCos => 3.0,
             Param::Emi(_) => 5.0,
             Param::BiasRoll | Param::BiasPitch => 1.0,
+            Param::TermCoef(_, r) => {
+                if r {
+                    0.05
+                } else {
+                    0.5
+                }
+            }
             _ => self.meta().scale,
         }
     }
@@ -410,13 +406,11 @@ pub fn effect_params(effect: EffectId) -> Vec<Param> {
         EffectId::Current => vec![Param::CurrentN, Param::CurrentE],
         EffectId::Tether => vec![Param::TetherN, Param::TetherE],
         EffectId::DepthSensorDrift => vec![Param::DepthDrift],
-        EffectId::CompassDeviation => vec![
-            Param::CompassSin,
-            Param::CompassCos,
-            Param::Emi(Thr::Port),
-            Param::Emi(Thr::Starboard),
-            Param::Emi(Thr::Vertical),
-        ],
+        EffectId::CompassDeviation => {
+            let mut v = vec![Param::CompassSin, Param::CompassCos];
+            v.extend(Thr::ALL.iter().map(|t| Param::Emi(*t)));
+            v
+        }
         EffectId::AttitudeBias => vec![Param::BiasRoll, Param::BiasPitch],
     }
 }

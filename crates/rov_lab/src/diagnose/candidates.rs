@@ -5,10 +5,10 @@ use std::collections::BTreeMap;
 
 use rov_dynamics::models::Channel;
 
-use crate::calibrate::excited;
+use crate::calibrate::{differential_used, excited, group_used};
 use crate::catalog::EffectId;
 use crate::data::{Run, SegmentKind};
-use crate::model::{BaseKind, LabModel};
+use crate::model::LabModel;
 use crate::params::{Axis, Param, Thr, effect_params};
 
 use super::*;
@@ -42,24 +42,27 @@ pub(super) fn effect_param_testable(model: &LabModel, runs: &[Run], p: Param) ->
         measured(model, runs, Channel::Heading) || measured(model, runs, Channel::YawRate);
     let pitch = measured(model, runs, Channel::Pitch) || measured(model, runs, Channel::PitchRate);
     let roll = measured(model, runs, Channel::Roll) || measured(model, runs, Channel::RollRate);
+    let surge = measured(model, runs, Channel::Surge);
     let on = |x: f64| x.abs() >= 5.0;
     match p {
         Param::ReverseRatio(t) => {
-            let rev = runs.iter().any(|r| r.reverse_present()[t.index()]);
-            rev && match t {
-                Thr::Vertical => depth,
-                _ => heading,
-            }
+            group_used(model, runs, t, true)
+                && match t {
+                    Thr::Vertical => depth,
+                    _ => heading || surge,
+                }
         }
         Param::LagTau => runs.iter().any(|r| r.segments.len() > 2) && (depth || heading),
-        Param::Deadzone => any_cmd(runs, |c| on(c.port) || on(c.starboard) || on(c.vertical)),
-        Param::PowerMax => any_cmd(runs, |c| {
-            let n = [c.port, c.starboard, c.vertical]
-                .iter()
-                .filter(|x| on(**x))
-                .count();
-            n >= 2
-        }),
+        Param::Deadzone => Thr::ALL.iter().any(|g| group_used(model, runs, *g, false)),
+        Param::PowerMax => {
+            let n = model.n_thrusters();
+            runs.iter().any(|r| {
+                r.inputs.iter().any(|c| {
+                    let t = model.thruster_targets(c);
+                    t[..n].iter().filter(|x| on(**x)).count() >= 2
+                })
+            })
+        }
         Param::ArmZh => pitch && any_cmd(runs, |c| on(c.port) && on(c.starboard)),
         Param::ArmXv => pitch && any_cmd(runs, |c| on(c.vertical)),
         Param::ArmYv => roll && any_cmd(runs, |c| on(c.vertical)),
@@ -74,8 +77,8 @@ pub(super) fn effect_param_testable(model: &LabModel, runs: &[Run], p: Param) ->
                     .iter()
                     .any(|r| r.segments.iter().any(|s| s.kind == SegmentKind::Surge))
         }
-        Param::DragRatio(Axis::Heave) => depth && any_cmd(runs, |c| c.vertical <= -5.0),
-        Param::DragRatio(Axis::Yaw) => heading && any_cmd(runs, |c| on(c.port - c.starboard)),
+        Param::DragRatio(Axis::Heave) => depth && group_used(model, runs, Thr::Vertical, true),
+        Param::DragRatio(Axis::Yaw) => heading && differential_used(model, runs),
         Param::DragRatio(_) => false,
         Param::CurrentN | Param::CurrentE => {
             measured(model, runs, Channel::North)
@@ -87,12 +90,7 @@ pub(super) fn effect_param_testable(model: &LabModel, runs: &[Run], p: Param) ->
         Param::DepthDrift => measured(model, runs, Channel::Depth),
         Param::CompassSin | Param::CompassCos => measured(model, runs, Channel::Heading),
         Param::Emi(t) => {
-            measured(model, runs, Channel::Heading)
-                && any_cmd(runs, |c| match t {
-                    Thr::Port => on(c.port),
-                    Thr::Starboard => on(c.starboard),
-                    Thr::Vertical => on(c.vertical),
-                })
+            measured(model, runs, Channel::Heading) && group_used(model, runs, t, false)
         }
         Param::BiasRoll => measured(model, runs, Channel::Roll),
         Param::BiasPitch => measured(model, runs, Channel::Pitch),
@@ -102,24 +100,26 @@ pub(super) fn effect_param_testable(model: &LabModel, runs: &[Run], p: Param) ->
 }
 
 pub(super) fn availability(model: &LabModel, runs: &[Run], e: EffectId) -> Availability {
-    let kind = model.kind();
-    if let Some(reason) = kind.not_applicable(e) {
-        return Availability::NotApplicable(format!("not testable with {}: {reason}", kind.name()));
+    if let Some(reason) = model.not_applicable(e) {
+        return Availability::NotApplicable(format!(
+            "not testable with {}: {reason}",
+            model.base_name()
+        ));
     }
     match e {
         EffectId::Coriolis => {
             return Availability::Contained(format!(
                 "{} already contains it; its coefficients follow from the mass, added mass and CG",
-                kind.name()
+                model.base_name()
             ));
         }
         EffectId::AddedMass => {
             return Availability::Contained(format!(
                 "{} already contains it; with motion data only, added mass, thrust gain and damping are determined up to a common scale, so it is kept fixed and the calibration's thrust and damping carry the scale",
-                kind.name()
+                model.base_name()
             ));
         }
-        EffectId::PitchDepthCoupling if kind == BaseKind::Model3 => {
+        EffectId::PitchDepthCoupling if model.contains(e) => {
             return Availability::Contained(
                 "model3's 6-DOF kinematics already carry it; a trim angle shows up as restoring-offset"
                     .into(),
@@ -141,7 +141,7 @@ pub(super) fn availability(model: &LabModel, runs: &[Run], e: EffectId) -> Avail
     Availability::Candidate(Candidate {
         effect: e,
         params,
-        contained: kind.contains(e),
+        contained: model.contains(e),
     })
 }
 
@@ -199,7 +199,7 @@ pub(super) fn candidates_of(
             Availability::Candidate(c) => cands.push(c),
             Availability::NotApplicable(s) => other.push(blank(Status::NotApplicable, s, false)),
             Availability::NotTestable(s) => {
-                other.push(blank(Status::NotTestable, s, model.kind().contains(e)))
+                other.push(blank(Status::NotTestable, s, model.contains(e)))
             }
             Availability::Contained(s) => other.push(blank(Status::Contained, s, true)),
         }

@@ -371,8 +371,8 @@ pub(super) fn refine(
                 .and_then(|h| h.get(k))
                 .copied()
                 .unwrap_or(0.0);
-            let cmd = if k == 0 { run.cmd[0] } else { run.cmd[k - 1] };
-            m.heading_offset_deg(psi.to_radians(), &cmd)
+            let prev = crate::sim::prev_targets(m, run, k);
+            m.heading_offset_deg(psi.to_radians(), &prev)
         }) && !kinematic_consistent(beta, se)
         {
             signature_failed = Some(format!(
