@@ -336,14 +336,18 @@ pub fn excited(model: &LabModel, runs: &[Run], p: Param) -> bool {
     }
 }
 
-/// Bounds with a weak prior at the current value (keeps unexcited directions put).
+/// Bounds with priors: a base parameter's documented prior (the base file's value and its
+/// documented uncertainty, [`LabModel::prior_of`]); with `prior_at_current`, any other
+/// parameter gets a weak prior at its current value (keeps unexcited directions put).
 pub fn bounds_for(model: &LabModel, params: &[Param], prior_at_current: bool) -> Vec<Bound> {
     params
         .iter()
         .map(|p| {
             let m = p.meta();
             let v = model.get(*p).or_else(|| p.off_value()).unwrap_or(0.0);
-            let prior = prior_at_current.then(|| (v, (v.abs() * 2.0).max(m.scale * 20.0)));
+            let prior = model
+                .prior_of(*p)
+                .or_else(|| prior_at_current.then(|| (v, (v.abs() * 2.0).max(m.scale * 20.0))));
             Bound {
                 lo: m.lo,
                 hi: m.hi,
@@ -456,7 +460,63 @@ pub fn calibrate(
         .into_iter()
         .filter(|p| excited(model, runs, *p))
         .collect();
-    staged_fit(model, runs, &free, opts)
+    let a = staged_fit(model, runs, &free, opts)?;
+    // The short-horizon start can end in a poor basin (a channel the base could fit left
+    // several noise floors off). Then a second start, the same stages begun with a
+    // multiple-shooting fit, and the better of the two by the maximum-likelihood
+    // criterion for unknown per-channel error variances (Σ_c N_c ln MSE_c).
+    if worst_misfit_ratio(&a.model, runs)? <= SECOND_START_RATIO {
+        return Ok(a);
+    }
+    let Ok(b) = staged_fit_from(model, runs, &free, opts, false) else {
+        return Ok(a);
+    };
+    if det_criterion(&b.model, runs)? < det_criterion(&a.model, runs)? {
+        Ok(b)
+    } else {
+        Ok(a)
+    }
+}
+
+/// A calibration whose worst channel misfits its training runs by more than this many
+/// noise floors (multiple shooting) gets a second start (see [`calibrate`]).
+pub const SECOND_START_RATIO: f64 = 2.5;
+
+/// The largest training misfit of a model in noise floors (multiple shooting).
+fn worst_misfit_ratio(model: &LabModel, runs: &[Run]) -> Result<f64, LabError> {
+    let m = misfit_scales(model, runs, View::Shooting(SHOOTING_WINDOW_S))?;
+    let mut worst: f64 = 0.0;
+    for (i, mi) in m.iter().enumerate() {
+        let (mut s, mut n) = (0.0, 0usize);
+        for r in runs {
+            if r.y[i].is_some() {
+                s += r.noise[i].powi(2) * r.len() as f64;
+                n += r.len();
+            }
+        }
+        if n > 0 && *mi > 0.0 {
+            worst = worst.max(mi / (s / n as f64).sqrt().max(1e-12));
+        }
+    }
+    Ok(worst)
+}
+
+/// Σ_c N_c ln MSE_c over the compared channels (multiple shooting): the ML criterion for
+/// unknown per-channel error variances (lower is better).
+fn det_criterion(model: &LabModel, runs: &[Run]) -> Result<f64, LabError> {
+    let m = misfit_scales(model, runs, View::Shooting(SHOOTING_WINDOW_S))?;
+    let mut out = 0.0;
+    for (i, mi) in m.iter().enumerate() {
+        let n: usize = runs
+            .iter()
+            .filter(|r| r.y[i].is_some())
+            .map(|r| r.len())
+            .sum();
+        if n > 0 && *mi > 0.0 {
+            out += n as f64 * (mi * mi).ln();
+        }
+    }
+    Ok(out)
 }
 
 /// Short prediction horizon of the first calibration stage, s.
@@ -480,12 +540,28 @@ pub fn staged_fit(
     free: &[Param],
     opts: &LmOptions,
 ) -> Result<Calibration, LabError> {
+    staged_fit_from(model, runs, free, opts, true)
+}
+
+/// [`staged_fit`], its very first fit on the short horizon (`short_first`) or in
+/// multiple shooting.
+fn staged_fit_from(
+    model: &LabModel,
+    runs: &[Run],
+    free: &[Param],
+    opts: &LmOptions,
+    short_first: bool,
+) -> Result<Calibration, LabError> {
     let dt = runs.first().map_or(0.05, |r| r.median_dt()).max(1e-3);
     let k = (SHORT_HORIZON_S / dt).round().max(2.0) as usize;
     let short = View::KStep(k);
     let shooting = View::Shooting(SHOOTING_WINDOW_S);
-    let short_fit = fit(model, runs, free, short, None, None, opts)?;
-    let noise_fit = fit(
+    let first_view = if short_first { short } else { shooting };
+    let mut short_fit = fit(model, runs, free, first_view, None, None, opts)?;
+    if !short_fit.lm.converged {
+        short_fit = fit(&short_fit.model, runs, free, first_view, None, None, opts)?;
+    }
+    let mut noise_fit = fit(
         &short_fit.model,
         runs,
         free,
@@ -497,6 +573,26 @@ pub fn staged_fit(
             ..*opts
         },
     )?;
+    // The reweighting below must judge a converged fit: a channel a still-moving fit has
+    // not reached yet is not a structural misfit. Continue (at most twice more) until
+    // the noise-weighted fit has converged.
+    for _ in 0..2 {
+        if noise_fit.lm.converged {
+            break;
+        }
+        noise_fit = fit(
+            &noise_fit.model,
+            runs,
+            free,
+            shooting,
+            None,
+            Some(bounds_for(model, free, true)),
+            &LmOptions {
+                max_iter: opts.max_iter,
+                ..*opts
+            },
+        )?;
+    }
     let s1 = structural_scales(runs, &misfit_scales(&noise_fit.model, runs, shooting)?);
     if s1 == NOISE_ONLY {
         return Ok(noise_fit);
@@ -538,8 +634,9 @@ pub fn staged_fit(
     )?;
     let s2 = structural_scales(runs, &misfit_scales(&first.model, runs, shooting)?);
     // Fresh Jacobians here: with channels down-weighted, parameters acting mostly on them
-    // are weakly determined, and rank-one updates let them wander.
-    fit_scaled(
+    // are weakly determined, and rank-one updates let them wander. Continued (at most
+    // twice more) until converged, like the noise-weighted stage.
+    let mut last = fit_scaled(
         &first.model,
         runs,
         free,
@@ -552,7 +649,24 @@ pub fn staged_fit(
         },
         None,
         &s2,
-    )
+    )?;
+    for _ in 0..2 {
+        if last.lm.converged {
+            break;
+        }
+        last = fit_scaled(
+            &last.model,
+            runs,
+            free,
+            shooting,
+            None,
+            Some(bounds_for(model, free, true)),
+            opts,
+            None,
+            &s2,
+        )?;
+    }
+    Ok(last)
 }
 
 /// Per-sample factors taking a weighted residual (layout of [`Objective`]) from the
@@ -607,6 +721,109 @@ pub fn structural_scales(runs: &[Run], misfit: &ChannelScales) -> ChannelScales 
         let sigma = (sum / n as f64).sqrt();
         if misfit[i] > REWEIGHT_FACTOR * sigma {
             *o = (misfit[i] - (REWEIGHT_FACTOR - 1.0) * sigma).max(sigma);
+        }
+    }
+    out
+}
+
+/// The calibration's parameters that need saying: those at a bound of their range (a
+/// physical limit, or a plausibility limit that makes the value suspect) and the
+/// directions of the parameter space the data leaves undetermined (eigenvectors of the
+/// Gauss–Newton information matrix in prior-scaled coordinates, with the effective sample
+/// size, whose eigenvalue is below the prior's own information), in words.
+pub fn calibration_notes(cal: &Calibration) -> Vec<String> {
+    let mut out = Vec::new();
+    let bounds = bounds_for(&cal.model, &cal.params, true);
+    for (i, p) in cal.params.iter().enumerate() {
+        let (Some(v), Some(b)) = (cal.model.get(*p), bounds.get(i)) else {
+            continue;
+        };
+        let tol = 1e-6 * (b.hi - b.lo).abs().max(1e-12);
+        for (bound, upper) in [(b.lo, false), (b.hi, true)] {
+            if (v - bound).abs() <= tol {
+                let (dv, unit) = p.display(v);
+                out.push(if p.bound_is_physical(upper) {
+                    format!(
+                        "{} = {dv:.4} {unit} ended at its physical {} limit: the data wants it beyond what is possible, a sign of a structural misfit it compensates",
+                        p.key(),
+                        if upper { "upper" } else { "lower" }
+                    )
+                } else {
+                    format!(
+                        "{} = {dv:.4} {unit} ended at the {} bound of its plausible range: implausible, it stands in for something the base lacks",
+                        p.key(),
+                        if upper { "upper" } else { "lower" }
+                    )
+                });
+            }
+        }
+    }
+    let Some(j) = cal.lm.jacobian.as_ref() else {
+        return out;
+    };
+    let p = cal.params.len();
+    if j.ncols() != p || p == 0 {
+        return out;
+    }
+    // The data's information in prior-scaled coordinates z = (x − μ)/σ_prior, with the
+    // effective sample size (correlated residuals carry less information than their count):
+    // a direction whose eigenvalue is below 1 is determined less by the data than by the
+    // documented prior.
+    let dof = (cal.lm.n_res as f64 - p as f64).max(1.0);
+    let s2 = (cal.lm.cost / dof).max(1e-300);
+    let ratio = (cal.n_eff / cal.lm.n_res.max(1) as f64).clamp(0.0, 1.0);
+    let sig: Vec<f64> = cal
+        .params
+        .iter()
+        .zip(&bounds)
+        .map(|(q, b)| {
+            cal.model
+                .prior_of(*q)
+                .map(|(_, s)| s)
+                .unwrap_or(b.scale * 20.0)
+        })
+        .collect();
+    let mut a = j.transpose() * j;
+    for r in 0..p {
+        for c in 0..p {
+            a[(r, c)] *= sig[r] * sig[c] * ratio / s2;
+        }
+    }
+    let eig = nalgebra::SymmetricEigen::new(a);
+    let mut weak: Vec<(f64, usize)> = eig
+        .eigenvalues
+        .iter()
+        .enumerate()
+        .filter(|(_, ev)| **ev < 1.0)
+        .map(|(k, ev)| (*ev, k))
+        .collect();
+    weak.sort_by(|x, y| x.0.total_cmp(&y.0));
+    for (ev, k) in weak.into_iter().take(3) {
+        let v = eig.eigenvectors.column(k);
+        let mut comp: Vec<(f64, Param)> = cal
+            .params
+            .iter()
+            .enumerate()
+            .map(|(i, q)| (v[i], *q))
+            .filter(|(c, _)| c.abs() >= 0.3)
+            .collect();
+        comp.sort_by(|x, y| y.0.abs().total_cmp(&x.0.abs()));
+        if comp.len() >= 2 {
+            let names: Vec<String> = comp
+                .iter()
+                .map(|(c, q)| format!("{}{}", if *c < 0.0 { "−" } else { "+" }, q.key()))
+                .collect();
+            out.push(format!(
+                "unidentifiable direction: {} move together with little change of the fit (the data's information there is {:.2} of the documented prior's); only their combination is determined, and their individual values rest on the priors",
+                names.join(" "),
+                ev
+            ));
+        } else if let Some((_, q)) = comp.first() {
+            out.push(format!(
+                "{} is barely determined by this data (information {:.2} of its documented prior's); it stays near its prior",
+                q.key(),
+                ev
+            ));
         }
     }
     out

@@ -283,6 +283,8 @@ pub struct LabModel {
     drag_tau_factor: [f64; 6],
     has_sensor_fx: bool,
     has_body_fx: bool,
+    /// The base file's own values of the base parameters (the priors' means).
+    nominal: Vec<(Param, f64)>,
 }
 
 fn thrust_coefs(map: &ThrustMap) -> (f64, f64) {
@@ -319,7 +321,54 @@ impl LabModel {
             drag_tau_factor: [1.0; 6],
             has_sensor_fx: false,
             has_body_fx: false,
+            nominal: Vec::new(),
         }
+    }
+
+    /// Records the base parameters' current values as the nominal ones.
+    fn record_nominal(mut self) -> Self {
+        self.nominal = Param::all()
+            .into_iter()
+            .filter(|p| {
+                p.off_value().is_none() || matches!(p, Param::NetWeight | Param::CgX | Param::CgY)
+            })
+            .filter_map(|p| self.get(p).map(|v| (p, v)))
+            .collect();
+        self
+    }
+
+    /// The base file's own value of a base parameter (thrust scales: 1).
+    pub fn nominal(&self, p: Param) -> Option<f64> {
+        self.nominal.iter().find(|(q, _)| *q == p).map(|(_, v)| *v)
+    }
+
+    /// The documented prior of a base parameter: (mean = the base file's value, σ)
+    /// (`None` for effect parameters). Pro 4 bases: [`crate::params::documented_pro4`];
+    /// vehicle files: their `[uncertainty]` table.
+    pub fn prior_of(&self, p: Param) -> Option<(f64, f64)> {
+        use crate::params::Documented;
+        let mean = self.nominal(p)?;
+        let doc = match &self.base {
+            Base::Vehicle(v) => {
+                let u = &v.def.uncertainty;
+                match p {
+                    Param::ThrustLin(_) | Param::ThrustQuad(_) => {
+                        Documented::Rel(u.thrust_gain_rel)
+                    }
+                    Param::DragLin(_) | Param::DragQuad(_) => Documented::Rel(u.damping_rel),
+                    Param::AddedMass(_) => Documented::Rel(u.added_mass_rel),
+                    Param::CgX | Param::CgY | Param::CgZ => Documented::Abs(u.cg_m),
+                    Param::NetWeight => Documented::Abs(u.net_weight_n),
+                    _ => return None,
+                }
+            }
+            _ => crate::params::documented_pro4(p)?,
+        };
+        let sigma = match doc {
+            Documented::Rel(r) => (r * mean.abs()).max(p.meta().scale),
+            Documented::Abs(a) => a.max(1e-9),
+        };
+        Some((mean, sigma))
     }
 
     /// From a base model's parameter-file text (`label` names it in errors).
@@ -382,7 +431,7 @@ impl LabModel {
             m.drag_tau_factor[2] = 1.0 / a[1];
             m.drag_tau_factor[5] = 1.0 / a[2];
         }
-        Ok(m)
+        Ok(m.record_nominal())
     }
 
     /// From a vehicle definition file's text (see [`rov_dynamics::models::vehicle`]).
@@ -406,7 +455,7 @@ impl LabModel {
         m.thr_group = groups;
         m.name = name;
         m.refresh_name();
-        Ok(m)
+        Ok(m.record_nominal())
     }
 
     /// A shipped base model (`config/models/`).
@@ -417,6 +466,16 @@ impl LabModel {
             }
         })?;
         Self::from_base_text(kind, text, &format!("config/models/{}.toml", kind.name()))
+    }
+
+    /// The vehicle's weight W, N.
+    pub fn weight_n(&self) -> f64 {
+        match &self.base {
+            Base::M1(m) => m.params().mass_kg * 9.81,
+            Base::M2(m) => m.params().weight_n,
+            Base::M3(m) => m.params().process.hydrostatics.weight_n,
+            Base::Vehicle(v) => v.def.process.hydrostatics.weight_n,
+        }
     }
 
     /// The base kind.

@@ -387,6 +387,39 @@ impl Param {
     }
 }
 
+/// How well a Pro 4 base parameter is known (parameters.md), for calibration priors and
+/// the verdict's parameter uncertainty: `Rel(σ/|value|)` or `Abs(σ)`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Documented {
+    /// Relative standard deviation.
+    Rel(f64),
+    /// Absolute standard deviation (parameter units).
+    Abs(f64),
+}
+
+/// The documented uncertainty of a Pro 4 base parameter (`None` for effect parameters,
+/// which have no prior: "off" is a hypothesis, not a belief).
+///
+/// | parameter | σ | basis (shared/reference/parameters.md) |
+/// |---|---|---|
+/// | thrust scales | 30 % | §1: full thrust "~17 N (range 15–20)" horizontal, "~10 N (8–12)" vertical; the 10 % linear share is an estimate |
+/// | damping | 50 % | §1.1–4: Pro III coefficients scaled by a frontal-area ratio, estimates |
+/// | added mass | 50 % | §3–4: fractions of the displaced mass for a box-like body, estimates |
+/// | CG height | 30 % | §4: 5.59 mm from CAD; ballast trim moves it |
+/// | CG x, y | 3 mm | §1: ballast trims the vehicle near level |
+/// | W − B | 0.5 N | §3: B between 59.8 and 60.3 N for W = 59.8 N |
+pub fn documented_pro4(p: Param) -> Option<Documented> {
+    Some(match p {
+        Param::ThrustLin(_) | Param::ThrustQuad(_) => Documented::Rel(0.3),
+        Param::DragLin(_) | Param::DragQuad(_) => Documented::Rel(0.5),
+        Param::AddedMass(_) => Documented::Rel(0.5),
+        Param::CgZ => Documented::Rel(0.3),
+        Param::CgX | Param::CgY => Documented::Abs(0.003),
+        Param::NetWeight => Documented::Abs(0.5),
+        _ => return None,
+    })
+}
+
 /// The parameters an effect adds (or, for a contained effect, refits). The list is the
 /// full set; [`crate::diagnose`] drops those the data cannot excite.
 pub fn effect_params(effect: EffectId) -> Vec<Param> {

@@ -248,15 +248,28 @@ pub fn simulation_count() -> usize {
     SIMULATIONS.load(std::sync::atomic::Ordering::Relaxed)
 }
 
-/// Simulates a run, re-initialising at the given sorted sample indices (0 is implied).
-pub fn simulate_run(model: &LabModel, run: &Run, resets: &[usize]) -> Result<Prediction, LabError> {
+/// The model's state at one sample, with what drives it from there on.
+#[derive(Debug, Clone, Copy)]
+pub struct SampleState {
+    /// The state (η, ν) at the sample (after any re-initialisation).
+    pub state: ModelState,
+    /// The lagged thruster commands at the sample, %.
+    pub lagged: PerThruster,
+    /// The filtered command signals of the terms at the sample (`filt[cmd * 2 + k]`).
+    pub filt: [f64; 2 * rov_dynamics::models::vehicle::N_COMMANDS],
+}
+
+/// Simulates a run, re-initialising at the given sorted sample indices (0 is implied),
+/// handing every sample's state to `on_sample` (the one loop behind [`simulate_run`]
+/// and [`simulate_states`]).
+fn simulate_core(
+    model: &LabModel,
+    run: &Run,
+    resets: &[usize],
+    mut on_sample: impl FnMut(usize, &SampleState),
+) -> Result<(), LabError> {
     SIMULATIONS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-    let chans = compared_channels(model, run);
     let n = run.len();
-    let mut out = Prediction::default();
-    for ch in &chans {
-        out.y[ch_index(*ch)] = Some(Vec::with_capacity(n));
-    }
     let mut state = ModelState::new(
         Vector6::zeros(),
         Vector6::new(
@@ -275,25 +288,28 @@ pub fn simulate_run(model: &LabModel, run: &Run, resets: &[usize]) -> Result<Pre
     let filters = model.filters();
     let sig0 = model.command_signals(&c0);
     let mut filt_state = [0.0; MAX_FILTERS];
-    for (fs, (ci, _)) in filt_state.iter_mut().zip(filters) {
-        *fs = sig0.get(*ci as usize).copied().unwrap_or(0.0);
-    }
     let mut filt = [0.0; 2 * rov_dynamics::models::vehicle::N_COMMANDS];
+    for (fs, (ci, fk)) in filt_state.iter_mut().zip(filters) {
+        *fs = sig0.get(*ci as usize).copied().unwrap_or(0.0);
+        if let Some(slot) = filt.get_mut(*ci as usize * FILTER_TAUS_S.len() + *fk as usize) {
+            *slot = *fs;
+        }
+    }
     let cur = CurrentSample::none();
-    let t0 = run.t[0];
     let mut next_reset = resets.iter().copied().filter(|&r| r > 0).peekable();
     for k in 0..n {
         if next_reset.peek() == Some(&k) {
             next_reset.next();
             reinit(model, run, k, &mut state);
         }
-        let pc = prev_targets(model, run, k);
-        let t_rel = run.t[k] - t0;
-        for ch in &chans {
-            if let Some(v) = out.y[ch_index(*ch)].as_mut() {
-                v.push(model.sensor_value(*ch, &state, t_rel, &pc));
-            }
-        }
+        on_sample(
+            k,
+            &SampleState {
+                state,
+                lagged: lag,
+                filt,
+            },
+        );
         if k + 1 == n {
             break;
         }
@@ -337,6 +353,11 @@ pub fn simulate_run(model: &LabModel, run: &Run, resets: &[usize]) -> Result<Pre
             };
             state = rk4(model, &state, &tau, &drive, &cur, h);
         }
+        for (j, (ci, fk)) in filters.iter().enumerate() {
+            if let Some(slot) = filt.get_mut(*ci as usize * FILTER_TAUS_S.len() + *fk as usize) {
+                *slot = filt_state[j];
+            }
+        }
         let finite = state
             .eta
             .iter()
@@ -354,6 +375,38 @@ pub fn simulate_run(model: &LabModel, run: &Run, resets: &[usize]) -> Result<Pre
             });
         }
     }
+    Ok(())
+}
+
+/// Simulates a run, re-initialising at the given sorted sample indices (0 is implied).
+pub fn simulate_run(model: &LabModel, run: &Run, resets: &[usize]) -> Result<Prediction, LabError> {
+    let chans = compared_channels(model, run);
+    let n = run.len();
+    let mut out = Prediction::default();
+    for ch in &chans {
+        out.y[ch_index(*ch)] = Some(Vec::with_capacity(n));
+    }
+    let t0 = run.t.first().copied().unwrap_or(0.0);
+    simulate_core(model, run, resets, |k, s| {
+        let pc = prev_targets(model, run, k);
+        let t_rel = run.t[k] - t0;
+        for ch in &chans {
+            if let Some(v) = out.y[ch_index(*ch)].as_mut() {
+                v.push(model.sensor_value(*ch, &s.state, t_rel, &pc));
+            }
+        }
+    })?;
+    Ok(out)
+}
+
+/// Simulates a run like [`simulate_run`] and returns the state at every sample.
+pub fn simulate_states(
+    model: &LabModel,
+    run: &Run,
+    resets: &[usize],
+) -> Result<Vec<SampleState>, LabError> {
+    let mut out = Vec::with_capacity(run.len());
+    simulate_core(model, run, resets, |_, s| out.push(*s))?;
     Ok(out)
 }
 

@@ -9,9 +9,13 @@ use rov_lab::diagnose::{DiagnoseOptions, diagnose};
 use rov_lab::lab::compare;
 use rov_lab::{BaseKind, LabModel, Run};
 
+/// shared/real_data/bluerov2_saabmarine_mex: `../shared` from the project root, or under
+/// `$TOPSIDE_SHARED_DIR` when the checkout lives elsewhere (a worktree).
 fn data_dir() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../../../shared/real_data/bluerov2_saabmarine_mex")
+    let shared = std::env::var_os("TOPSIDE_SHARED_DIR")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared"));
+    shared.join("real_data/bluerov2_saabmarine_mex")
 }
 
 fn load(name: &str) -> Option<Run> {

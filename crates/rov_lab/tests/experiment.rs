@@ -628,3 +628,146 @@ fn exp_null() {
     }
     println!("NULL false positives {fp} of {}", b - a + 1);
 }
+
+#[test]
+#[ignore = "design experiment: prints tables, asserts nothing; run with --ignored --nocapture"]
+fn exp_spikes_on_clean_data() {
+    for seed in 1..12u64 {
+        let (tr, va) = case_len(seed, &[], 360.0, 180.0);
+        for s in [tr, va] {
+            let r = Run::from_series(&s, "x").unwrap();
+            println!(
+                "seed {seed}: spikes {:?} closed {:?}",
+                r.treatment.spikes, r.treatment.closed_loop
+            );
+        }
+    }
+}
+
+#[test]
+#[ignore = "design experiment: prints tables, asserts nothing; run with --ignored --nocapture"]
+fn exp_bluerov_ingest() {
+    let dir = std::path::PathBuf::from(std::env::var("TOPSIDE_SHARED_DIR").unwrap_or_default())
+        .join("real_data/bluerov2_saabmarine_mex");
+    let Ok(rd) = std::fs::read_dir(&dir) else {
+        return;
+    };
+    let mut files: Vec<_> = rd.filter_map(|e| e.ok()).map(|e| e.path()).collect();
+    files.sort();
+    for f in files
+        .iter()
+        .filter(|f| f.extension().is_some_and(|e| e == "csv"))
+    {
+        let text = std::fs::read_to_string(f).unwrap();
+        let name = f.file_name().unwrap().to_string_lossy().to_string();
+        let runs = rov_lab::ingest::runs_from_text(&text, &name).unwrap();
+        for s in rov_lab::ingest::treatment_sentences(&runs) {
+            println!("{s}");
+        }
+        for r in &runs {
+            println!(
+                "  {} n={} segs={} spikes={:?}",
+                r.name,
+                r.len(),
+                r.segments.len(),
+                r.treatment.spikes
+            );
+        }
+    }
+}
+
+#[test]
+#[ignore = "design experiment: prints tables, asserts nothing; run with --ignored --nocapture"]
+fn exp_calibrate_iters() {
+    use rov_lab::calibrate::calibrate;
+    use rov_lab::lm::LmOptions;
+    let seed: u64 = std::env::var("SEED")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(5);
+    let (tr, va) = case_len(seed, &[], 360.0, 180.0);
+    let tr = Run::from_series(&tr, "train").unwrap();
+    let va = Run::from_series(&va, "val").unwrap();
+    let m = LabModel::default_base(BaseKind::Model3).unwrap();
+    for it in [8usize, 16, 30] {
+        let t = std::time::Instant::now();
+        let cal = calibrate(
+            &m,
+            std::slice::from_ref(&tr),
+            &LmOptions {
+                max_iter: it,
+                threads: 2,
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        println!(
+            "iters {it}: {:?} lm iters {} cost0 {:.1} cost {:.1} scales heading {:.3}",
+            t.elapsed(),
+            cal.lm.iterations,
+            cal.cost0,
+            cal.cost,
+            cal.scales[1]
+        );
+        report("  val", &cal.model, &va);
+        report("  train", &cal.model, &tr);
+        for f in &cal.fitted {
+            println!(
+                "  {} {:.4} ± {:.4} (init {:.4}) bound {}",
+                f.key, f.value, f.std, f.initial, f.at_bound
+            );
+        }
+        for n in rov_lab::calibrate::calibration_notes(&cal) {
+            println!("  note: {n}");
+        }
+    }
+}
+
+#[test]
+#[ignore = "design experiment: prints tables, asserts nothing; run with --ignored --nocapture"]
+fn exp_calibrate_seeds() {
+    use rov_lab::calibrate::calibrate;
+    use rov_lab::lm::LmOptions;
+    let kind = match std::env::var("KIND").as_deref() {
+        Ok("model1") => BaseKind::Model1,
+        Ok("model2") => BaseKind::Model2,
+        _ => BaseKind::Model3,
+    };
+    for seed in 100..114u64 {
+        let (tr, va) = case_len(seed, &[], 360.0, 180.0);
+        let tr = Run::from_series(&tr, "train").unwrap();
+        let va = Run::from_series(&va, "val").unwrap();
+        let m = LabModel::default_base(kind).unwrap();
+        let t = std::time::Instant::now();
+        let cal = calibrate(
+            &m,
+            std::slice::from_ref(&tr),
+            &LmOptions {
+                max_iter: 8,
+                threads: 2,
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        let el = t.elapsed();
+        let mut s = format!("seed {seed} {:.2}s:", el.as_secs_f64());
+        for (tag, run) in [("tr", &tr), ("va", &va)] {
+            let p = simulate_run(&cal.model, run, &View::Shooting(20.0).resets(run)).unwrap();
+            for ch in [
+                Channel::Depth,
+                Channel::Heading,
+                Channel::Pitch,
+                Channel::Roll,
+            ] {
+                if let Some(mm) = channel_metrics(run, &p, ch) {
+                    s += &format!(
+                        " {tag}-{:?} {:.1}",
+                        ch,
+                        mm.rmse / run.noise[rov_lab::data::ch_index(ch)]
+                    );
+                }
+            }
+        }
+        println!("{s}");
+    }
+}

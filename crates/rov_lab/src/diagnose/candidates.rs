@@ -1,8 +1,6 @@
 //! Which catalog effects are candidates for a model and data: applicable, testable with
 //! the data's channels and excitation, or already contained in the base.
 
-use std::collections::BTreeMap;
-
 use rov_dynamics::models::Channel;
 
 use crate::calibrate::{differential_used, excited, group_used};
@@ -177,23 +175,8 @@ pub(super) fn candidates_of(
         if skip.contains(&e) {
             continue;
         }
-        let blank = |status: Status, expl: String, contained: bool| Finding {
-            effect: e.key().into(),
-            significant: false,
-            status,
-            contained,
-            channels: vec![],
-            view: String::new(),
-            validation_rmse_reduction_pct: BTreeMap::new(),
-            validation_rmse_reduction_pct_free_run: BTreeMap::new(),
-            validation_rmse_reduction_pct_shooting: BTreeMap::new(),
-            params: BTreeMap::new(),
-            explanation: expl,
-            delta_bic: None,
-            score: 0.0,
-            ambiguous_with: vec![],
-            separating_experiment: None,
-            round: 0,
+        let blank = |status: Status, expl: String, contained: bool| {
+            Finding::blank(e, status, expl, contained)
         };
         match availability(model, train, e) {
             Availability::Candidate(c) => cands.push(c),

@@ -15,9 +15,49 @@ use crate::params::{Param, axis_params_of};
 
 use super::*;
 
+/// What a confirmation fits: a catalog effect or a discovered term.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) enum Subject {
+    /// A catalog effect.
+    Effect(EffectId),
+    /// A discovered term (its coefficient is the fitted parameter).
+    Term(crate::terms::Term),
+}
+
+impl Subject {
+    /// The channels where its signature lives first.
+    pub(super) fn home(&self) -> Vec<Channel> {
+        match self {
+            Subject::Effect(e) => home_channels(*e),
+            Subject::Term(t) => term_home(t.dof),
+        }
+    }
+
+    /// The catalog effect, if it is one.
+    pub(super) fn effect(&self) -> Option<EffectId> {
+        match self {
+            Subject::Effect(e) => Some(*e),
+            Subject::Term(_) => None,
+        }
+    }
+}
+
+/// The channels that show a force on a DOF first.
+pub(super) fn term_home(dof: u8) -> Vec<Channel> {
+    use Channel::*;
+    match dof {
+        0 => vec![Surge, North, East],
+        1 => vec![Sway, North, East],
+        2 => vec![Depth, Heave],
+        3 => vec![Roll, RollRate],
+        4 => vec![Pitch, PitchRate],
+        _ => vec![Heading, YawRate],
+    }
+}
+
 #[derive(Debug, Clone)]
 pub(super) struct Confirmed {
-    pub(super) effect: EffectId,
+    pub(super) subject: Subject,
     pub(super) contained: bool,
     pub(super) params: Vec<Param>,
     /// Base parameters refitted with the effect.
@@ -75,8 +115,9 @@ pub(super) fn confirm_stage1(
     let mut with_effect = model.clone();
     with_effect.add_effect(s.cand.effect);
     let first_view = s.view;
-    let cs_first = candidate_scales(s.cand.effect, caches.scales.of(first_view));
-    let cs_view = candidate_scales(s.cand.effect, caches.scales.of(view));
+    let home = home_channels(s.cand.effect);
+    let cs_first = candidate_scales(&home, caches.scales.of(first_view));
+    let cs_view = candidate_scales(&home, caches.scales.of(view));
     let rows_first = row_factors(
         model,
         train,
@@ -205,7 +246,7 @@ pub(super) fn confirm_stage1(
     let eval = evaluate(&stage1.model, val)?;
     let control = control_eval(model, &stage1.model, &s.cand.params, s.cand.contained, val);
     let c = Confirmed {
-        effect: s.cand.effect,
+        subject: Subject::Effect(s.cand.effect),
         contained: s.cand.contained,
         params: s.cand.params.clone(),
         base_fit: fit_base.clone(),
@@ -216,7 +257,7 @@ pub(super) fn confirm_stage1(
         view,
         signature_failed: None,
     };
-    let j = judge(base_eval, &c);
+    let j = judge(base_eval, &c, caches.closed_loop);
     Ok((c, j))
 }
 
@@ -255,6 +296,8 @@ pub(super) fn effect_bounds(
     for (i, p) in free.iter().enumerate() {
         if effect.contains(p) && !keep_prior.contains(p) {
             b[i].prior = None;
+        } else if let Some(prior) = model.prior_of(*p) {
+            b[i].prior = Some(prior);
         } else if let Some(v) = model.get(*p) {
             let m = p.meta();
             b[i].prior = Some((v, (v.abs() * 2.0).max(m.scale * 20.0)));
@@ -276,6 +319,7 @@ pub(super) fn refine(
     contained: bool,
     iterations: usize,
     scales: &ViewScales,
+    closed_loop: bool,
 ) -> Result<(Confirmed, Judgement), LabError> {
     let view = stage1.view;
     let mut all_free: Vec<Param> = stage1.base_fit.clone();
@@ -290,7 +334,7 @@ pub(super) fn refine(
         ..Default::default()
     };
     let bounds = effect_bounds(model, &all_free, &stage1.params, &stage1.base_fit);
-    let cs = candidate_scales(stage1.effect, scales.of(view));
+    let cs = candidate_scales(&stage1.subject.home(), scales.of(view));
     let fitted = fit_scaled(
         &stage1.fit.model,
         train,
@@ -312,7 +356,7 @@ pub(super) fn refine(
     let dbic = n_eff * (base_cost / fitted.cost.max(1e-300)).max(1.0).ln() - q * n_eff.ln();
     let eval = evaluate(&fitted.model, val)?;
     let mut signature_failed = None;
-    if stage1.effect == EffectId::ThrusterLag {
+    if stage1.subject == Subject::Effect(EffectId::ThrusterLag) {
         let dt = train.first().map_or(0.05, |r| r.median_dt());
         let tau = fitted.model.get(Param::LagTau).unwrap_or(0.0);
         if tau < LAG_RESOLUTION * dt {
@@ -324,7 +368,7 @@ pub(super) fn refine(
         }
     }
     let all_runs: Vec<Run> = train.iter().chain(val.iter()).cloned().collect();
-    if stage1.effect == EffectId::DepthSensorDrift {
+    if stage1.subject == Subject::Effect(EffectId::DepthSensorDrift) {
         let rate = fitted.model.get(Param::DepthDrift).unwrap_or(0.0);
         if let Some((beta, se)) = kinematic_ratio(&all_runs, Channel::Depth, |run, k| {
             rate * (run.t[k] - run.t[0])
@@ -363,7 +407,7 @@ pub(super) fn refine(
             }
         }
     }
-    if stage1.effect == EffectId::CompassDeviation {
+    if stage1.subject == Subject::Effect(EffectId::CompassDeviation) {
         let m = &fitted.model;
         if let Some((beta, se)) = kinematic_ratio(&all_runs, Channel::Heading, |run, k| {
             let psi = run
@@ -383,7 +427,7 @@ pub(super) fn refine(
     }
     let control = control_eval(model, &fitted.model, &stage1.params, contained, val);
     let c = Confirmed {
-        effect: stage1.effect,
+        subject: stage1.subject,
         contained,
         params: stage1.params.clone(),
         base_fit: stage1.base_fit.clone(),
@@ -394,6 +438,6 @@ pub(super) fn refine(
         view,
         signature_failed,
     };
-    let j = judge(base_eval, &c);
+    let j = judge(base_eval, &c, closed_loop);
     Ok((c, j))
 }

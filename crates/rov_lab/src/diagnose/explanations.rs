@@ -14,7 +14,7 @@ pub(super) fn fmt_pct(x: f64) -> String {
 /// Plain-language explanation of a confirmed finding.
 pub(super) fn explain(c: &Confirmed, j: &Judgement, model: &LabModel) -> String {
     let v = |p: Param| c.fit.model.get(p).unwrap_or(0.0);
-    let home = home_channels(c.effect);
+    let home = c.subject.home();
     let pick = |only_home: bool| {
         j.explained
             .iter()
@@ -29,7 +29,11 @@ pub(super) fn explain(c: &Confirmed, j: &Judgement, model: &LabModel) -> String 
         format!(" explains {} of the {main_ch} residual", fmt_pct(frac))
     };
     let mm = |x: f64| format!("{:.0} mm", x * 1000.0);
-    match c.effect {
+    let effect = match c.subject {
+        Subject::Effect(e) => e,
+        Subject::Term(t) => return super::discovery::explain_term(c, &t, model, &tail),
+    };
+    match effect {
         EffectId::ThrustAsymmetry => {
             let mut parts = Vec::new();
             for t in Thr::ALL {

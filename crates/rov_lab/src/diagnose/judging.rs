@@ -24,6 +24,8 @@ pub(super) struct Judgement {
     pub(super) score: f64,
     pub(super) explained: BTreeMap<ChannelKey, f64>,
     pub(super) reason: String,
+    /// Channels the candidate makes clearly worse in either view, in words.
+    pub(super) conflicts: Vec<String>,
 }
 
 pub(super) fn reduction(base: f64, new: f64) -> f64 {
@@ -105,15 +107,17 @@ pub(super) fn pinned_in(model: &LabModel, params: &[Param]) -> Option<(String, f
 ///
 /// The ranking score is the same for every candidate: the noise-normalised held-out RMSE
 /// gain summed over channels, both views counting half.
-pub(super) fn judge(base: &Evaluation, c: &Confirmed) -> Judgement {
+pub(super) fn judge(base: &Evaluation, c: &Confirmed, closed_loop: bool) -> Judgement {
     let mut free = BTreeMap::new();
     let mut shoot = BTreeMap::new();
     let mut channels = Vec::new();
     let mut score = 0.0;
     let mut worse: Vec<(String, f64)> = Vec::new();
+    // (channel, how much worse in which view, vetoing, the base already misses it).
+    let mut conflicts: Vec<(String, String, bool, bool)> = Vec::new();
     let home = fitted_home_channels(c);
     let mut claimed = home.clone();
-    for ch in home_channels(c.effect) {
+    for ch in c.subject.home() {
         if !claimed.contains(&ch) {
             claimed.push(ch);
         }
@@ -127,8 +131,11 @@ pub(super) fn judge(base: &Evaluation, c: &Confirmed) -> Judgement {
         };
         let ch = k.channel();
         let name = k.name().to_string();
-        let bv = [b.shooting.rmse, b.free_run.rmse];
-        let nv = [n.shooting.rmse, n.free_run.rmse];
+        // Closed-loop data: the free run is not a test of the model (module docs of
+        // `crate::ingest`), so both "views" are the multiple-shooting one.
+        let fr = |s: f64, f: f64| if closed_loop { s } else { f };
+        let bv = [b.shooting.rmse, fr(b.shooting.rmse, b.free_run.rmse)];
+        let nv = [n.shooting.rmse, fr(n.shooting.rmse, n.free_run.rmse)];
         let red = [reduction(bv[0], nv[0]), reduction(bv[1], nv[1])];
         shoot.insert(name.clone(), 100.0 * red[0]);
         free.insert(name.clone(), 100.0 * red[1]);
@@ -142,7 +149,7 @@ pub(super) fn judge(base: &Evaluation, c: &Confirmed) -> Judgement {
         let control_ok = match &c.control {
             None => true,
             Some(ctrl) => ctrl.channels.get(k).is_some_and(|cc| {
-                let cv = [cc.shooting.rmse, cc.free_run.rmse];
+                let cv = [cc.shooting.rmse, fr(cc.shooting.rmse, cc.free_run.rmse)];
                 let back = [cv[0] - nv[0], cv[1] - nv[1]];
                 let back_rel = 0.5
                     * (if cv[0] > 0.0 { back[0] / cv[0] } else { 0.0 }
@@ -157,15 +164,37 @@ pub(super) fn judge(base: &Evaluation, c: &Confirmed) -> Judgement {
         }
         let sigma = b.noise.max(1e-12);
         let worse_view_above = (0..2).any(|v| red[v] < -MAX_WORSE && nv[v] > floor);
-        if mean_red < -MAX_WORSE && worse_view_above {
+        if worse_view_above {
             let (ds, df) = prediction_change_rms(&c.eval, base, ch);
+            let df = fr(ds, df);
             let within_noise = 0.5 * (ds + df) < WORSE_NOISE_FRACTION * sigma;
             let unexplained = !claimed.contains(&ch)
                 && bv[0] > REWEIGHT_FACTOR * sigma
                 && -mean_red <= MAX_WORSE_UNEXPLAINED;
-            if !within_noise && !unexplained {
+            let vetoing = mean_red < -MAX_WORSE && !within_noise && !unexplained;
+            if vetoing {
                 let loss = 0.5 * ((nv[0] - bv[0]) + (nv[1] - bv[1])) / sigma;
-                worse.push((name, loss));
+                worse.push((name.clone(), loss));
+            }
+            if !within_noise {
+                let views: Vec<String> = (0..2)
+                    .filter(|v| red[*v] < -MAX_WORSE && nv[*v] > floor)
+                    .filter(|v| !(closed_loop && *v == 1))
+                    .map(|v| {
+                        format!(
+                            "{:.0} % worse in the {}",
+                            -red[v] * 100.0,
+                            if v == 0 {
+                                "multiple-shooting view"
+                            } else {
+                                "free run"
+                            }
+                        )
+                    })
+                    .collect();
+                if !views.is_empty() {
+                    conflicts.push((name.clone(), views.join(" and "), vetoing, unexplained));
+                }
             }
         }
         score += 0.5 * (((bv[0] - nv[0]) / sigma).max(0.0) + ((bv[1] - nv[1]) / sigma).max(0.0));
@@ -224,6 +253,24 @@ pub(super) fn judge(base: &Evaluation, c: &Confirmed) -> Judgement {
     } else if let Some(why) = &c.signature_failed {
         reason = why.clone();
     }
+    let conflicts = conflicts
+        .into_iter()
+        .map(|(ch, views, vetoing, base_misses)| {
+            if vetoing {
+                format!(
+                    "{ch} gets {views}; this blocks the finding — the fit bends the base to explain its home channels at the cost of {ch}, which usually means the base's structure (a coupling between these channels) is wrong or missing"
+                )
+            } else if base_misses {
+                format!(
+                    "{ch} gets {views}; tolerated because the base already misses {ch} by more than {REWEIGHT_FACTOR} noise floors, but a trade between channels suggests a base-structure problem there"
+                )
+            } else {
+                format!(
+                    "{ch} gets {views}; small against the gain, but a trade between channels suggests a base-structure problem"
+                )
+            }
+        })
+        .collect();
     Judgement {
         significant: reason.is_empty(),
         channels,
@@ -234,9 +281,11 @@ pub(super) fn judge(base: &Evaluation, c: &Confirmed) -> Judgement {
         score,
         explained,
         reason,
+        conflicts,
     }
 }
 
+/// Home channels of a fitted effect: those of its parameters that moved noticeably
 /// from "off" (so a torque that only moved its roll part must show in roll).
 pub(super) fn fitted_home_channels(c: &Confirmed) -> Vec<Channel> {
     let mut out: Vec<Channel> = Vec::new();
@@ -256,7 +305,7 @@ pub(super) fn fitted_home_channels(c: &Confirmed) -> Vec<Channel> {
         }
     }
     if out.is_empty() && !any_param {
-        return home_channels(c.effect);
+        return c.subject.home();
     }
     out
 }

@@ -42,14 +42,17 @@ use crate::LabError;
 use crate::calibrate::{SHOOTING_WINDOW_S, View, calibrate};
 use crate::catalog::EffectId;
 use crate::data::{Run, ch_name};
-use crate::evaluate::{ChannelKey, evaluate};
+use crate::evaluate::ChannelKey;
 use crate::lm::LmOptions;
 use crate::model::LabModel;
-use crate::params::{Param, axis_params_of};
+use crate::params::Param;
+use crate::verdict::{self, Verdict};
 
 mod candidates;
 mod confirmation;
+mod discovery;
 mod explanations;
+mod greedy;
 mod judging;
 mod report;
 mod screening;
@@ -59,6 +62,7 @@ pub use crate::catalog::separating_experiment;
 use candidates::*;
 use confirmation::*;
 use explanations::*;
+use greedy::Greedy;
 use judging::*;
 pub use report::*;
 use screening::*;
@@ -120,6 +124,8 @@ pub struct DiagnoseOptions {
     pub calibration_iterations: usize,
     /// LM iterations of a confirmation fit.
     pub confirm_iterations: usize,
+    /// Most terms outside the catalog accepted (0 switches the term search off).
+    pub max_terms: usize,
 }
 
 impl Default for DiagnoseOptions {
@@ -131,6 +137,7 @@ impl Default for DiagnoseOptions {
             confirm_later: 2,
             calibration_iterations: 8,
             confirm_iterations: 4,
+            max_terms: 2,
         }
     }
 }
@@ -155,113 +162,55 @@ pub fn diagnose(
         ..Default::default()
     };
     let cal = calibrate(base, train, &lm_opts)?;
-    let base_free = cal.params.clone();
+    let closed_loop = train
+        .iter()
+        .chain(val.iter())
+        .any(|r| r.treatment.closed_loop());
     let calibrated = cal.model.clone();
-    let base_eval = evaluate(&calibrated, val)?;
-    let mut current = calibrated.clone();
-    let mut current_eval = base_eval.clone();
-    let mut current_free = base_free.clone();
-    let (all_cands, mut passive) = candidates_of(&calibrated, train, base.active_effects());
+    let mut g = Greedy::new(&cal, train, val, closed_loop, opts.threads)?;
+    let base_eval = g.current_eval.clone();
+    let (mut all_cands, mut passive) = candidates_of(&calibrated, train, base.active_effects());
+    if closed_loop {
+        // A slow sensor drift shows only in the free run, which closed-loop data voids.
+        let (slow, fast): (Vec<Candidate>, Vec<Candidate>) = all_cands
+            .into_iter()
+            .partition(|c| primary_view(c.effect) == View::FreeRun);
+        all_cands = fast;
+        for c in slow {
+            passive.push(Finding::blank(
+                c.effect,
+                Status::NotTestable,
+                "not testable with closed-loop data: it shows only in the free run, and an autopilot corrected the real vehicle where the free-running model is not corrected".into(),
+                c.contained,
+            ));
+        }
+    }
     let mut remaining = all_cands.clone();
     let mut accepted: Vec<EffectId> = Vec::new();
     let mut findings: Vec<Finding> = Vec::new();
     let mut error_fall = vec![("calibrated base".to_string(), rmse_map(&base_eval))];
     let mut latest: BTreeMap<EffectId, Finding> = BTreeMap::new();
-    let mut cache_short = ColumnCache::new();
-    let mut cache_shoot = ColumnCache::new();
-    let mut cache_free = ColumnCache::new();
-    let mut scales = ViewScales::of_model(&current, train)?;
+    let mut latest_terms: Vec<Finding> = Vec::new();
     for round in 1..=opts.max_effects.max(1) {
         if remaining.is_empty() {
             break;
         }
-        let (slow, fast): (Vec<Candidate>, Vec<Candidate>) = remaining
-            .iter()
-            .cloned()
-            .partition(|c| primary_view(c.effect) == View::FreeRun);
-        let short = screen(
-            &current,
-            train,
-            &current_free,
-            &fast,
-            short_view(train),
-            &scales.short,
-            opts.threads,
-            &mut cache_short,
-        )?;
-        let long = screen(
-            &current,
-            train,
-            &current_free,
-            &fast,
-            View::Shooting(SHOOTING_WINDOW_S),
-            &scales.shoot,
-            opts.threads,
-            &mut cache_shoot,
-        )?;
-        // Per candidate, keep the view where it explains more.
-        let mut screened: Vec<Screened> = Vec::new();
-        for a in short {
-            match long.iter().find(|b| b.cand.effect == a.cand.effect) {
-                Some(b) if b.explained > a.explained => screened.push(b.clone()),
-                _ => screened.push(a),
-            }
-        }
-        for b in &long {
-            if !screened.iter().any(|a| a.cand.effect == b.cand.effect) {
-                screened.push(b.clone());
-            }
-        }
-        // In the free run only the base parameters of the slow candidates' own axes are
-        // refitted with them (see `confirm_stage1`), so only those are screened with them.
-        let slow_base: Vec<Param> = {
-            let mut own: Vec<Param> = Vec::new();
-            for c in &slow {
-                own.extend(axis_params_of(&home_channels(c.effect)));
-            }
-            current_free
-                .iter()
-                .copied()
-                .filter(|p| own.contains(p))
-                .collect()
-        };
-        screened.extend(screen(
-            &current,
-            train,
-            &slow_base,
-            &slow,
-            View::FreeRun,
-            &scales.free,
-            opts.threads,
-            &mut cache_free,
-        )?);
-        screened.sort_by(|a, b| {
-            (b.dbic > MIN_DBIC)
-                .cmp(&(a.dbic > MIN_DBIC))
-                .then(b.explained.total_cmp(&a.explained))
-        });
+        let screened = g.screen(&remaining)?;
         for s in &screened {
-            latest.entry(s.cand.effect).or_insert_with(|| Finding {
-                effect: s.cand.effect.key().into(),
-                significant: false,
-                status: Status::Screened,
-                contained: s.cand.contained,
-                channels: vec![],
-                view: String::new(),
-                validation_rmse_reduction_pct: BTreeMap::new(),
-                validation_rmse_reduction_pct_free_run: BTreeMap::new(),
-                validation_rmse_reduction_pct_shooting: BTreeMap::new(),
-                params: BTreeMap::new(),
-                explanation: format!(
-                    "screened only (training ΔBIC {:.1}, explains {:.0} % of its channel's training residual); not among the strongest candidates",
-                    s.dbic,
-                    s.explained * 100.0
-                ),
-                delta_bic: Some(s.dbic),
-                score: 0.0,
-                ambiguous_with: vec![],
-                separating_experiment: None,
-                round,
+            latest.entry(s.cand.effect).or_insert_with(|| {
+                let mut f = Finding::blank(
+                    s.cand.effect,
+                    Status::Screened,
+                    format!(
+                        "screened only (training ΔBIC {:.1}, explains {:.0} % of its channel's training residual); not among the strongest candidates",
+                        s.dbic,
+                        s.explained * 100.0
+                    ),
+                    s.cand.contained,
+                );
+                f.delta_bic = Some(s.dbic);
+                f.round = round;
+                f
             });
         }
         let k = if round == 1 {
@@ -299,122 +248,23 @@ pub fn diagnose(
         if top.is_empty() {
             break;
         }
-        let caches = Caches {
-            short: &cache_short,
-            shoot: &cache_shoot,
-            free: &cache_free,
-            scales: &scales,
-        };
-        let stage1: Vec<(Confirmed, Judgement)> = par_map(top.len(), opts.threads, |i| {
-            confirm_stage1(
-                &current,
-                &current_eval,
-                train,
-                val,
-                &current_free,
-                top[i],
-                opts.confirm_iterations,
-                &caches,
-            )
-        })
-        .into_iter()
-        .flatten()
-        .collect();
-        // Refine the most promising (by first-stage held-out score) and any close second.
-        let mut order: Vec<usize> = (0..stage1.len()).collect();
-        order.sort_by(|a, b| stage1[*b].1.score.total_cmp(&stage1[*a].1.score));
-        let lead = order.first().map_or(0.0, |i| stage1[*i].1.score);
-        let to_refine: Vec<usize> = order
-            .iter()
-            .copied()
-            .enumerate()
-            .filter(|(rank, i)| {
-                let sc = stage1[*i].1.score;
-                sc > 0.0 && !stage1[*i].1.channels.is_empty() && (*rank == 0 || sc >= 0.5 * lead)
-            })
-            .map(|(_, i)| i)
-            .take(2)
-            .collect();
-        let refined: Vec<Result<(Confirmed, Judgement), LabError>> =
-            par_map(to_refine.len(), opts.threads, |k| {
-                let (c1, _) = &stage1[to_refine[k]];
-                refine(
-                    &current,
-                    &current_eval,
-                    train,
-                    val,
-                    c1,
-                    c1.contained,
-                    opts.confirm_iterations,
-                    &scales,
-                )
-            });
-        let mut judged: Vec<(Confirmed, Judgement)> = Vec::new();
-        let mut refined_ok: Vec<usize> = Vec::new();
-        for (k, r) in refined.into_iter().enumerate() {
-            if let Ok(x) = r {
-                refined_ok.push(to_refine[k]);
-                judged.push(x);
-            }
-        }
-        for (i, (c, j)) in stage1.into_iter().enumerate() {
-            if refined_ok.contains(&i) {
-                continue;
-            }
-            let mut j = j;
-            if j.significant {
-                j.significant = false;
-                j.reason = "weaker than the leading candidate in the first-stage fit".into();
-            }
-            judged.push((c, j));
-        }
-        judged.sort_by(|a, b| {
-            b.1.significant
-                .cmp(&a.1.significant)
-                .then(b.1.score.total_cmp(&a.1.score))
-        });
-        let noise: BTreeMap<ChannelKey, f64> = current_eval
+        let judged = g.confirm(&top, opts.confirm_iterations, false);
+        let noise: BTreeMap<ChannelKey, f64> = g
+            .current_eval
             .channels
             .iter()
             .map(|(k, c)| (*k, c.noise))
             .collect();
         for (c, j) in &judged {
-            let expl = if j.significant {
-                explain(c, j, &current)
-            } else {
-                format!(
-                    "not significant: {} ({})",
-                    j.reason,
-                    explain(c, j, &current)
-                )
+            let Some(effect) = c.subject.effect() else {
+                continue;
             };
-            latest.insert(
-                c.effect,
-                Finding {
-                    effect: c.effect.key().into(),
-                    significant: j.significant,
-                    status: if j.significant {
-                        Status::Significant
-                    } else {
-                        Status::NotSignificant
-                    },
-                    contained: c.contained,
-                    channels: j.channels.iter().map(|k| k.name().to_string()).collect(),
-                    view: view_name(j.view).into(),
-                    validation_rmse_reduction_pct: j.primary.clone(),
-                    validation_rmse_reduction_pct_free_run: j.free.clone(),
-                    validation_rmse_reduction_pct_shooting: j.shoot.clone(),
-                    params: param_reports(c),
-                    explanation: expl,
-                    delta_bic: Some(c.dbic),
-                    score: j.score,
-                    ambiguous_with: vec![],
-                    separating_experiment: None,
-                    round,
-                },
-            );
+            latest.insert(effect, effect_finding(c, j, &g.current, round));
         }
         let Some((best, bj)) = judged.first().filter(|(_, j)| j.significant) else {
+            break;
+        };
+        let Some(best_effect) = best.subject.effect() else {
             break;
         };
         // Ambiguity with other significant candidates of this round.
@@ -424,19 +274,21 @@ pub fn diagnose(
                 continue;
             }
             let chans: Vec<ChannelKey> = bj.channels.clone();
-            let da = prediction_change(&best.eval, &current_eval, &chans, &noise);
-            let db = prediction_change(&c.eval, &current_eval, &chans, &noise);
-            if cosine(&da, &db) > AMBIGUITY_COSINE {
-                amb.push(c.effect);
+            let da = prediction_change(&best.eval, &g.current_eval, &chans, &noise);
+            let db = prediction_change(&c.eval, &g.current_eval, &chans, &noise);
+            if cosine(&da, &db) > AMBIGUITY_COSINE
+                && let Some(e) = c.subject.effect()
+            {
+                amb.push(e);
             }
         }
         if !amb.is_empty() {
             let names: Vec<String> = amb.iter().map(|e| e.key().to_string()).collect();
             let exps: Vec<String> = amb
                 .iter()
-                .map(|e| separating_experiment(best.effect, *e))
+                .map(|e| separating_experiment(best_effect, *e))
                 .collect();
-            if let Some(f) = latest.get_mut(&best.effect) {
+            if let Some(f) = latest.get_mut(&best_effect) {
                 f.ambiguous_with = names.clone();
                 f.separating_experiment = Some(exps.join("; "));
                 f.explanation = format!(
@@ -450,44 +302,153 @@ pub fn diagnose(
                 if let Some(f) = latest.get_mut(e) {
                     f.status = Status::Ambiguous;
                     f.significant = false;
-                    f.ambiguous_with = vec![best.effect.key().to_string()];
-                    f.separating_experiment = Some(separating_experiment(best.effect, *e));
+                    f.ambiguous_with = vec![best_effect.key().to_string()];
+                    f.separating_experiment = Some(separating_experiment(best_effect, *e));
                 }
             }
         }
-        accepted.push(best.effect);
-        if let Some(f) = latest.remove(&best.effect) {
+        accepted.push(best_effect);
+        if let Some(f) = latest.remove(&best_effect) {
             findings.push(f);
         }
-        for p in &best.params {
-            if !current_free.contains(p) {
-                current_free.push(*p);
+        g.accept(best)?;
+        error_fall.push((
+            format!("+ {}", best_effect.key()),
+            rmse_map(&g.current_eval),
+        ));
+        remaining.retain(|c| c.effect != best_effect);
+    }
+    // The verdict on the catalog's result; the term search when it is not enough.
+    let mut spread = [0.0; crate::data::N_CHANNELS];
+    let base_tests0 = verdict::test_channels(&calibrated, val, &base_eval, &spread);
+    let mut final_tests0 = verdict::test_channels(&g.current, val, &g.current_eval, &spread);
+    if !verdict::all_consistent(&base_tests0) || !verdict::all_consistent(&final_tests0) {
+        spread = verdict::param_spread(&cal, train, val, &base_eval.shooting)?;
+        final_tests0 = verdict::test_channels(&g.current, val, &g.current_eval, &spread);
+    }
+    let base_tests = if spread.iter().any(|s| *s > 0.0) {
+        verdict::test_channels(&calibrated, val, &base_eval, &spread)
+    } else {
+        base_tests0
+    };
+    let mut final_tests = final_tests0;
+    let mut accepted_terms: Vec<crate::terms::Term> = Vec::new();
+    let mut search_notes: Vec<String> = Vec::new();
+    let names = g.current.command_names();
+    for round in 1..=opts.max_terms {
+        if verdict::all_consistent(&final_tests) {
+            break;
+        }
+        let catalog: Vec<(EffectId, Vec<Param>)> = remaining
+            .iter()
+            .map(|c| (c.effect, c.params.clone()))
+            .collect();
+        let (picks, notes) = discovery::search(&g.current, train, &g.current_free, &catalog)?;
+        for (dof, formula, e) in &notes.catalog_like {
+            let s = format!(
+                "the residual {} follows {formula}, which is the signature of the catalog effect {} (reported under it, not as a new term)",
+                crate::terms::DOF_FORCE
+                    .get(*dof)
+                    .copied()
+                    .unwrap_or("force"),
+                e.key()
+            );
+            if !search_notes.contains(&s) {
+                search_notes.push(s);
             }
         }
-        current = best.fit.model.clone();
-        current_eval = best.eval.clone();
-        // Reweight for the next round (the accepted effect fits its channels better now).
-        let new_scales = ViewScales::of_model(&current, train)?;
-        for (cache, view) in [
-            (&mut cache_short, short_view(train)),
-            (&mut cache_shoot, View::Shooting(SHOOTING_WINDOW_S)),
-            (&mut cache_free, View::FreeRun),
-        ] {
-            rescale_cache(
-                cache,
-                &calibrated,
-                train,
-                view,
-                scales.of(view),
-                new_scales.of(view),
-            );
+        let top: Vec<&discovery::TermPick> = picks.iter().take(discovery::MAX_CONFIRM).collect();
+        if top.is_empty() {
+            break;
         }
-        scales = new_scales;
-        error_fall.push((format!("+ {}", best.effect.key()), rmse_map(&current_eval)));
-        remaining.retain(|c| c.effect != best.effect);
+        let judged: Vec<(Confirmed, Judgement)> = par_map(top.len(), opts.threads, |i| {
+            discovery::confirm_term(
+                &g.current,
+                &g.current_eval,
+                train,
+                val,
+                &g.current_free,
+                top[i],
+                opts.confirm_iterations,
+                &g.scales,
+                closed_loop,
+            )
+        })
+        .into_iter()
+        .flatten()
+        .collect();
+        let mut judged = judged;
+        judged.sort_by(|a, b| {
+            b.1.significant
+                .cmp(&a.1.significant)
+                .then(b.1.score.total_cmp(&a.1.score))
+        });
+        let mut best_term: Option<(Confirmed, Judgement)> = None;
+        for (k, (c, j)) in judged.into_iter().enumerate() {
+            let Subject::Term(t) = c.subject else {
+                continue;
+            };
+            let id = t.id(&names);
+            let pick = top
+                .iter()
+                .find(|p| p.term.dof == t.dof && p.term.kind == t.kind);
+            let significant = j.significant && k == 0;
+            let mut f = Finding::blank_term(&t, &names);
+            f.significant = significant;
+            f.status = if significant {
+                Status::Significant
+            } else {
+                Status::NotSignificant
+            };
+            f.channels = j.channels.iter().map(|k| k.name().to_string()).collect();
+            f.view = view_name(j.view).into();
+            f.validation_rmse_reduction_pct = j.primary.clone();
+            f.validation_rmse_reduction_pct_free_run = j.free.clone();
+            f.validation_rmse_reduction_pct_shooting = j.shoot.clone();
+            f.params = param_reports(&c);
+            let ex = explain(&c, &j, &g.current);
+            let evidence = pick.map_or(String::new(), |p| {
+                format!(
+                    " (found by sparse regression on the residual {}: explains {:.0} % of it, ΔBIC {:.0}, selected in {:.0} % of bootstrap resamples)",
+                    crate::terms::DOF_FORCE.get(t.dof as usize).copied().unwrap_or("force"),
+                    p.explained * 100.0,
+                    p.dbic,
+                    p.inclusion * 100.0
+                )
+            });
+            f.explanation = if significant {
+                format!("{ex}{evidence}")
+            } else if j.significant {
+                format!("not significant: weaker than a better term this round ({ex}{evidence})")
+            } else {
+                format!("not significant: {} ({ex}{evidence})", j.reason)
+            };
+            f.delta_bic = Some(c.dbic);
+            f.score = j.score;
+            f.round = round;
+            f.conflicts = j.conflicts.clone();
+            if significant {
+                findings.push(f);
+                best_term = Some((c, j));
+            } else {
+                latest_terms.push(f);
+            }
+            let _ = id;
+        }
+        let Some((best, _)) = best_term else {
+            break;
+        };
+        let Subject::Term(t) = best.subject else {
+            break;
+        };
+        accepted_terms.push(t);
+        g.accept(&best)?;
+        error_fall.push((format!("+ {}", t.id(&names)), rmse_map(&g.current_eval)));
+        final_tests = verdict::test_channels(&g.current, val, &g.current_eval, &spread);
     }
     // Remaining evaluated findings, best first.
     let mut rest: Vec<Finding> = latest.into_values().collect();
+    rest.extend(latest_terms);
     rest.sort_by(|a, b| {
         let rank = |f: &Finding| match f.status {
             Status::Ambiguous => 0,
@@ -534,18 +495,54 @@ pub fn diagnose(
             not_predicted.push(ch_name(ch).to_string());
         }
     }
-    let summary = if accepted.is_empty() {
-        "nothing significant: the calibrated model is adequate for this data".to_string()
-    } else {
-        format!(
-            "found {}",
-            accepted
-                .iter()
-                .map(|e| e.key())
-                .collect::<Vec<_>>()
-                .join(", then ")
-        )
+    let consistent = verdict::all_consistent(&final_tests);
+    let any_finding = !accepted.is_empty() || !accepted_terms.is_empty();
+    let verdict = match (consistent, any_finding) {
+        (true, false) => Verdict::Adequate,
+        (true, true) => Verdict::Explained,
+        (false, _) => Verdict::Unexplained,
     };
+    let unexplained = verdict::unexplained(&g.current, val, &g.current_eval, &final_tests);
+    let mut found: Vec<String> = accepted.iter().map(|e| e.key().to_string()).collect();
+    found.extend(accepted_terms.iter().map(|t| t.id(&names)));
+    let summary = match verdict {
+        Verdict::Adequate => "nothing significant: the calibrated model is adequate for this data (every channel within its noise floor and parameter uncertainty)".to_string(),
+        Verdict::Explained => format!(
+            "found {}: with them the model is consistent with the held-out data (explained)",
+            found.join(", then ")
+        ),
+        Verdict::Unexplained => {
+            let u: Vec<String> = unexplained
+                .iter()
+                .map(|u| {
+                    let mut s = format!("{} {:.1}× its noise floor", u.channel, u.ratio);
+                    if let Some(c) = u.where_.first() {
+                        s.push_str(&format!(", mostly {}", c.description));
+                    }
+                    s
+                })
+                .collect();
+            if found.is_empty() {
+                format!(
+                    "nothing significant, but the model is not adequate for this data — unexplained: {}",
+                    u.join("; ")
+                )
+            } else {
+                format!(
+                    "found {}; still unexplained: {}",
+                    found.join(", then "),
+                    u.join("; ")
+                )
+            }
+        }
+    };
+    let mut data_notes = crate::ingest::treatment_sentences(train);
+    for s in crate::ingest::treatment_sentences(val) {
+        if !data_notes.contains(&s) {
+            data_notes.push(s);
+        }
+    }
+    let calibration_notes = crate::calibrate::calibration_notes(&cal);
     Ok(Diagnosis {
         model: model_label.to_string(),
         baseline,
@@ -553,11 +550,215 @@ pub fn diagnose(
         calibration: cal.fitted,
         findings,
         accepted,
+        accepted_terms,
         calibrated,
-        final_model: current,
+        final_model: g.current.clone(),
         error_fall,
         summary,
+        verdict,
+        consistency: final_tests,
+        consistency_base: base_tests,
+        unexplained,
+        data_notes,
+        closed_loop,
+        calibration_notes,
+        search_notes,
     })
+}
+
+/// One addition of [`add_to_model`].
+#[derive(Debug, Clone)]
+pub struct AddedStep {
+    /// "+ thruster-lag", "+ term:heave:r_2", …
+    pub label: String,
+    /// The model after the addition (base and everything added so far refitted).
+    pub model: LabModel,
+    /// Its held-out evaluation.
+    pub eval: crate::evaluate::Evaluation,
+    /// The addition's evidence card on the held-out runs.
+    pub finding: Finding,
+    /// The fitted parameters of that step's fit.
+    pub fitted: Vec<crate::calibrate::FittedParam>,
+}
+
+/// Result of [`add_to_model`].
+#[derive(Debug, Clone)]
+pub struct Added {
+    /// The base calibration.
+    pub calibration: crate::calibrate::Calibration,
+    /// The calibrated base's held-out evaluation.
+    pub base_eval: crate::evaluate::Evaluation,
+    /// One step per addition, in order.
+    pub steps: Vec<AddedStep>,
+    /// Additions that were not possible, in words.
+    pub notes: Vec<String>,
+}
+
+/// Adds catalog effects, then discovered terms (ids `term:DOF:SLUG`), in order, fitting
+/// each exactly as the diagnosis fits it — the same calibration, screening start,
+/// confirmation and refinement — and keeping it whatever the held-out runs say (its
+/// evidence card says that). So `lab add` of an effect the diagnosis found reaches the
+/// diagnosis's optimum.
+pub fn add_to_model(
+    base: &LabModel,
+    train: &[Run],
+    val: &[Run],
+    effects: &[EffectId],
+    terms: &[String],
+    opts: &DiagnoseOptions,
+) -> Result<Added, LabError> {
+    if train.is_empty() || val.is_empty() {
+        return Err(LabError::Data {
+            run: "(none)".into(),
+            detail: "adding needs at least one training and one validation run".into(),
+        });
+    }
+    for e in effects {
+        if let Some(reason) = base.not_applicable(*e) {
+            return Err(LabError::NotApplicable {
+                effect: e.key().into(),
+                model: base.base_name().into(),
+                reason: reason.into(),
+            });
+        }
+    }
+    let lm_opts = LmOptions {
+        max_iter: opts.calibration_iterations,
+        threads: opts.threads,
+        ..Default::default()
+    };
+    let cal = calibrate(base, train, &lm_opts)?;
+    let closed_loop = train
+        .iter()
+        .chain(val.iter())
+        .any(|r| r.treatment.closed_loop());
+    let mut g = Greedy::new(&cal, train, val, closed_loop, opts.threads)?;
+    let base_eval = g.current_eval.clone();
+    let mut steps = Vec::new();
+    let mut notes = Vec::new();
+    for (round, e) in effects.iter().enumerate() {
+        let cand = match availability(&g.current, train, *e) {
+            Availability::Candidate(c) => c,
+            Availability::Contained(why) => {
+                notes.push(format!("{}: {why}", e.key()));
+                continue;
+            }
+            Availability::NotApplicable(why) | Availability::NotTestable(why) => {
+                return Err(LabError::NotApplicable {
+                    effect: e.key().into(),
+                    model: g.current.base_name().into(),
+                    reason: why,
+                });
+            }
+        };
+        let screened = g.screen(std::slice::from_ref(&cand))?;
+        let Some(s) = screened.first() else {
+            return Err(LabError::Model {
+                detail: format!("{}: could not be screened", e.key()),
+            });
+        };
+        let judged = g.confirm(&[s], opts.confirm_iterations, true);
+        let Some((c, j)) = judged.first() else {
+            return Err(LabError::Model {
+                detail: format!("{}: no start could be fitted", e.key()),
+            });
+        };
+        let finding = effect_finding(c, j, &g.current, round + 1);
+        g.accept(c)?;
+        steps.push(AddedStep {
+            label: format!("+ {}", e.key()),
+            model: g.current.clone(),
+            eval: g.current_eval.clone(),
+            finding,
+            fitted: c.fit.fitted.clone(),
+        });
+    }
+    for id in terms {
+        let pick = discovery::regress_one(&g.current, train, &g.current_free, id)?;
+        let (c, j) = discovery::confirm_term(
+            &g.current,
+            &g.current_eval,
+            train,
+            val,
+            &g.current_free,
+            &pick,
+            opts.confirm_iterations,
+            &g.scales,
+            closed_loop,
+        )?;
+        let Subject::Term(t) = c.subject else {
+            continue;
+        };
+        let names = g.current.command_names();
+        let mut finding = Finding::blank_term(&t, &names);
+        finding.significant = j.significant;
+        finding.status = if j.significant {
+            Status::Significant
+        } else {
+            Status::NotSignificant
+        };
+        finding.channels = j.channels.iter().map(|k| k.name().to_string()).collect();
+        finding.view = view_name(j.view).into();
+        finding.validation_rmse_reduction_pct = j.primary.clone();
+        finding.validation_rmse_reduction_pct_free_run = j.free.clone();
+        finding.validation_rmse_reduction_pct_shooting = j.shoot.clone();
+        finding.params = param_reports(&c);
+        let ex = explain(&c, &j, &g.current);
+        finding.explanation = if j.significant {
+            ex
+        } else {
+            format!("not significant: {} ({ex})", j.reason)
+        };
+        finding.delta_bic = Some(c.dbic);
+        finding.score = j.score;
+        finding.conflicts = j.conflicts.clone();
+        g.accept(&c)?;
+        steps.push(AddedStep {
+            label: format!("+ {}", t.id(&names)),
+            model: g.current.clone(),
+            eval: g.current_eval.clone(),
+            finding,
+            fitted: c.fit.fitted.clone(),
+        });
+    }
+    Ok(Added {
+        calibration: cal,
+        base_eval,
+        steps,
+        notes,
+    })
+}
+
+/// The evidence card of a confirmed catalog effect.
+fn effect_finding(c: &Confirmed, j: &Judgement, model: &LabModel, round: usize) -> Finding {
+    let effect = c.subject.effect().unwrap_or(EffectId::AddedMass);
+    let expl = if j.significant {
+        explain(c, j, model)
+    } else {
+        format!("not significant: {} ({})", j.reason, explain(c, j, model))
+    };
+    let mut f = Finding::blank(
+        effect,
+        if j.significant {
+            Status::Significant
+        } else {
+            Status::NotSignificant
+        },
+        expl,
+        c.contained,
+    );
+    f.significant = j.significant;
+    f.channels = j.channels.iter().map(|k| k.name().to_string()).collect();
+    f.view = view_name(j.view).into();
+    f.validation_rmse_reduction_pct = j.primary.clone();
+    f.validation_rmse_reduction_pct_free_run = j.free.clone();
+    f.validation_rmse_reduction_pct_shooting = j.shoot.clone();
+    f.params = param_reports(c);
+    f.delta_bic = Some(c.dbic);
+    f.score = j.score;
+    f.round = round;
+    f.conflicts = j.conflicts.clone();
+    f
 }
 
 #[cfg(test)]

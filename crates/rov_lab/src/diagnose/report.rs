@@ -6,6 +6,8 @@ use crate::calibrate::{FittedParam, View};
 use crate::catalog::EffectId;
 use crate::evaluate::Evaluation;
 use crate::model::LabModel;
+use crate::params::Param;
+use crate::verdict::{ChannelTest, Unexplained, Verdict};
 
 use super::*;
 
@@ -77,6 +79,12 @@ pub struct Finding {
     pub separating_experiment: Option<String>,
     /// Greedy round in which it was evaluated (1-based; 0 = not evaluated).
     pub round: usize,
+    /// "catalog" for a catalog effect, "discovered" for a term found outside the catalog.
+    pub kind: String,
+    /// A discovered term's formula and DOF in words (`None` for catalog effects).
+    pub term: Option<String>,
+    /// Channels the finding makes clearly worse in either view, with what that suggests.
+    pub conflicts: Vec<String>,
 }
 
 /// Per-channel baseline numbers.
@@ -126,6 +134,72 @@ pub struct Diagnosis {
     pub error_fall: Vec<(String, RmseMaps)>,
     /// One-line summary ("nothing significant", "found …").
     pub summary: String,
+    /// Discovered terms accepted, in order.
+    pub accepted_terms: Vec<crate::terms::Term>,
+    /// The verdict (see [`crate::verdict`]).
+    pub verdict: Verdict,
+    /// The consistency test of every channel for the final model.
+    pub consistency: Vec<ChannelTest>,
+    /// The same for the calibrated base.
+    pub consistency_base: Vec<ChannelTest>,
+    /// Channels still inconsistent, with where their misfit lives.
+    pub unexplained: Vec<Unexplained>,
+    /// What was done to the data, in words.
+    pub data_notes: Vec<String>,
+    /// Whether the data is closed-loop (judged on multiple shooting only).
+    pub closed_loop: bool,
+    /// Calibration parameters at a bound or along an unidentifiable direction, in words.
+    pub calibration_notes: Vec<String>,
+    /// What the term search saw besides its findings.
+    pub search_notes: Vec<String>,
+}
+
+impl Finding {
+    /// A finding with nothing evaluated yet.
+    pub(super) fn blank(
+        effect: EffectId,
+        status: Status,
+        explanation: String,
+        contained: bool,
+    ) -> Self {
+        Finding {
+            effect: effect.key().into(),
+            significant: false,
+            status,
+            contained,
+            channels: vec![],
+            view: String::new(),
+            validation_rmse_reduction_pct: BTreeMap::new(),
+            validation_rmse_reduction_pct_free_run: BTreeMap::new(),
+            validation_rmse_reduction_pct_shooting: BTreeMap::new(),
+            params: BTreeMap::new(),
+            explanation,
+            delta_bic: None,
+            score: 0.0,
+            ambiguous_with: vec![],
+            separating_experiment: None,
+            round: 0,
+            kind: "catalog".into(),
+            term: None,
+            conflicts: vec![],
+        }
+    }
+
+    /// A blank finding for a discovered term.
+    pub(super) fn blank_term(t: &crate::terms::Term, cmd_names: &[&str]) -> Self {
+        let mut f = Self::blank(EffectId::AddedMass, Status::Screened, String::new(), false);
+        f.effect = t.id(cmd_names);
+        f.kind = "discovered".into();
+        f.term = Some(format!(
+            "{} ∝ {}",
+            crate::terms::DOF_FORCE
+                .get(t.dof as usize)
+                .copied()
+                .unwrap_or("force"),
+            t.kind.formula(cmd_names)
+        ));
+        f
+    }
 }
 
 pub(super) fn param_reports(c: &Confirmed) -> BTreeMap<String, ParamReport> {
@@ -134,6 +208,28 @@ pub(super) fn param_reports(c: &Confirmed) -> BTreeMap<String, ParamReport> {
         if let Some(i) = c.fit.params.iter().position(|x| x == p)
             && let Some(f) = c.fit.fitted.get(i)
         {
+            if let (Param::TermCoef(..), Subject::Term(t)) = (p, c.subject) {
+                // A term's coefficient in physical units (per unit of its regressor), and
+                // the force at the regressor's typical size.
+                let s = t.scale.max(1e-300);
+                out.insert(
+                    "coefficient".into(),
+                    ParamReport {
+                        value: t.coef,
+                        std: (f.std / s).is_finite().then_some(f.std / s),
+                        unit: format!("{} per {}", t.force_unit(), t.kind.regressor_unit()),
+                    },
+                );
+                out.insert(
+                    "force_at_typical_size".into(),
+                    ParamReport {
+                        value: t.coef * t.scale,
+                        std: f.std.is_finite().then_some(f.std),
+                        unit: t.force_unit().into(),
+                    },
+                );
+                continue;
+            }
             out.insert(
                 f.key.clone(),
                 ParamReport {

@@ -11,7 +11,6 @@ use crate::calibrate::{
     ChannelScales, Objective, SHOOTING_WINDOW_S, View, effective_n, misfit_scales, row_factors,
     structural_scales,
 };
-use crate::catalog::EffectId;
 use crate::data::Run;
 use crate::model::LabModel;
 use crate::params::{Param, axis_params_of};
@@ -313,7 +312,7 @@ pub(super) fn screen(
             runs,
             view,
             scales,
-            &candidate_scales(c.effect, scales),
+            &candidate_scales(&home_channels(c.effect), scales),
         );
         let (rv_c, b_c) = match &f {
             Some(f) => {
@@ -462,6 +461,8 @@ pub(super) struct Caches<'a> {
     pub(super) shoot: &'a ColumnCache,
     pub(super) free: &'a ColumnCache,
     pub(super) scales: &'a ViewScales,
+    /// Whether the data is closed-loop (judged on multiple shooting only).
+    pub(super) closed_loop: bool,
 }
 
 impl Caches<'_> {
@@ -535,9 +536,9 @@ pub(super) fn rescale_cache(
 /// discount the very evidence the candidate is judged on, and the other channels' misfit
 /// must not dominate its fit (a pitch response to a missing moment arm steering the fit
 /// of a thrust asymmetry).
-pub(super) fn candidate_scales(effect: EffectId, base: &ChannelScales) -> ChannelScales {
+pub(super) fn candidate_scales(home: &[Channel], base: &ChannelScales) -> ChannelScales {
     let mut s = *base;
-    for ch in home_channels(effect) {
+    for ch in home.iter().copied() {
         s[crate::data::ch_index(ch)] = 0.0;
     }
     s
