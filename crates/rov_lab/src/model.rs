@@ -111,9 +111,6 @@ impl BaseKind {
     pub fn not_applicable(self, e: EffectId) -> Option<&'static str> {
         if self == BaseKind::Vehicle {
             return match e {
-                EffectId::ThrusterMomentArm => Some(
-                    "a vehicle file gives every thruster's position and direction; refit them in the file instead",
-                ),
                 EffectId::PropellerTorque => Some(
                     "its parameters are the Pro 4's vertical and horizontal thruster torques; a vehicle file has its own thruster layout",
                 ),
@@ -347,6 +344,13 @@ impl LabModel {
     /// vehicle files: their `[uncertainty]` table.
     pub fn prior_of(&self, p: Param) -> Option<(f64, f64)> {
         use crate::params::Documented;
+        if matches!(p, Param::ArmZh | Param::ArmXv | Param::ArmYv) && self.arms_calibrated() {
+            let s = match &self.base {
+                Base::Vehicle(v) => v.def.uncertainty.thruster_position_m,
+                _ => return None,
+            };
+            return Some((0.0, s));
+        }
         let mean = self.nominal(p)?;
         let doc = match &self.base {
             Base::Vehicle(v) => {
@@ -536,8 +540,17 @@ impl LabModel {
         }
     }
 
+    /// Whether a vehicle file documents its thruster positions as uncertain, so that the
+    /// calibration refits the thrust lines (the moment arms become base parameters).
+    fn arms_calibrated(&self) -> bool {
+        matches!(&self.base, Base::Vehicle(v) if v.def.uncertainty.thruster_position_m > 0.0 && v.def.structure == Structure::Fossen6)
+    }
+
     /// Whether the base already contains an effect.
     pub fn contains(&self, e: EffectId) -> bool {
+        if e == EffectId::ThrusterMomentArm {
+            return self.arms_calibrated();
+        }
         if e == EffectId::PitchDepthCoupling || e == EffectId::RestoringOffset {
             return self.has_attitude() && self.kind.contains(e);
         }
@@ -551,7 +564,7 @@ impl LabModel {
         }
         if self.kind == BaseKind::Vehicle && !self.has_attitude() {
             return match e {
-                EffectId::RestoringOffset | EffectId::AttitudeBias => Some(
+                EffectId::RestoringOffset | EffectId::AttitudeBias | EffectId::ThrusterMomentArm => Some(
                     "it acts on pitch and roll, which this vehicle's structure locks (use structure = \"fossen6\")",
                 ),
                 _ => None,
@@ -588,6 +601,13 @@ impl LabModel {
             out.push(Param::AddedMass(Axis::Sway));
             out.push(Param::AddedMass(Axis::Roll));
             out.push(Param::AddedMass(Axis::Pitch));
+        }
+        if self.arms_calibrated() {
+            for p in [Param::ArmZh, Param::ArmXv, Param::ArmYv] {
+                if self.applicable(p) {
+                    out.push(p);
+                }
+            }
         }
         out
     }
@@ -756,9 +776,11 @@ impl LabModel {
                 Param::DragLin(a) | Param::DragQuad(a) | Param::AddedMass(a) => active[a.index()],
                 Param::DragRatio(a) => active[a.index()],
                 Param::CgZ | Param::CgX | Param::CgY | Param::BiasRoll | Param::BiasPitch => six,
-                Param::ArmZh | Param::ArmXv | Param::ArmYv | Param::TorqueV | Param::TorqueH => {
-                    false
-                }
+                // A vehicle's moment arms shift its thrusters from the file's positions:
+                // the non-vertical thrusters' height, the vertical ones' x and y.
+                Param::ArmZh => six && self.thr_group[..self.n_thr].iter().any(|g| *g != Thr::Vertical),
+                Param::ArmXv | Param::ArmYv => six && self.has_group(Thr::Vertical),
+                Param::TorqueV | Param::TorqueH => false,
                 Param::TrimDeg => !active[4],
                 Param::TermCoef(i, _) => (i as usize) < self.terms.len(),
                 _ => true,
@@ -1174,7 +1196,27 @@ impl LabModel {
     #[inline]
     pub fn thrust_tau(&self, f: &PerThruster, state: &ModelState) -> Vector6 {
         if let Base::Vehicle(v) = &self.base {
-            return v.dynm.tau(f);
+            let mut tau = v.dynm.tau(f);
+            let x = &self.fx;
+            if x.arm_zh_m != 0.0 || x.arm_xv_m != 0.0 || x.arm_yv_m != 0.0 {
+                // Moving a thruster by Δr adds Δr × F d to the moment.
+                for (i, fi) in f.iter().enumerate().take(self.n_thr) {
+                    if *fi == 0.0 {
+                        continue;
+                    }
+                    let d = v.dynm.column(i);
+                    let dr = if self.thruster_group(i) == Thr::Vertical {
+                        nalgebra::Vector3::new(x.arm_xv_m, x.arm_yv_m, 0.0)
+                    } else {
+                        nalgebra::Vector3::new(0.0, 0.0, x.arm_zh_m)
+                    };
+                    let m = dr.cross(&nalgebra::Vector3::new(d[0], d[1], d[2])) * *fi;
+                    tau[3] += m.x;
+                    tau[4] += m.y;
+                    tau[5] += m.z;
+                }
+            }
+            return tau;
         }
         let forces = ThrusterForces {
             port_n: f[0],

@@ -2,7 +2,8 @@
 //! catalog, each a regressor (a function of the body velocities, the attitude and the
 //! commands) times a coefficient, acting on one degree of freedom.
 //!
-//! The library ([`library`]) holds what modellab.md §4.5 and issue 13 ask for: products and
+//! The library ([`library`]) holds what modellab.md §4.5 and issue 13 ask for: linear
+//! couplings from another DOF's velocity (cross-damping), products and
 //! |·|-weighted products of body velocities and rates, cubes (speed-dependent damping),
 //! thruster commands, their signed squares and their products with the velocity along
 //! the DOF (thrust that changes with inflow), low-pass filtered commands (slow thruster or
@@ -43,6 +44,8 @@ pub const FILTER_TAUS_S: [f64; 2] = [0.5, 2.0];
 /// The form of a term's regressor.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum TermKind {
+    /// ν_i alone (a linear coupling from another DOF's velocity: cross-damping).
+    Lin(u8),
     /// a · b.
     Prod(Sig, Sig),
     /// a · |b|.
@@ -112,6 +115,7 @@ impl TermKind {
         };
         let cmd = |i: u8| x.cmd.get(i as usize).copied().unwrap_or(0.0);
         match *self {
+            TermKind::Lin(i) => x.nu.get(i as usize).copied().unwrap_or(0.0),
             TermKind::Prod(a, b) => sig(a) * sig(b),
             TermKind::ProdAbs(a, b) => sig(a) * sig(b).abs(),
             TermKind::Cube(a) => sig(a).powi(3),
@@ -158,6 +162,7 @@ impl TermKind {
             Sig::Cmd(i) => cname(i),
         };
         match *self {
+            TermKind::Lin(i) => sig(Sig::Nu(i)),
             TermKind::Prod(a, b) if a == b => format!("{}^2", sig(a)),
             TermKind::Prod(a, b) => format!("{}*{}", sig(a), sig(b)),
             TermKind::ProdAbs(a, b) => format!("{}*|{}|", sig(a), sig(b)),
@@ -230,7 +235,7 @@ impl TermKind {
             }
             return Some(TermKind::Prod(sig(a)?, sig(b)?));
         }
-        cmd(s).map(TermKind::Cmd)
+        nu(s).map(TermKind::Lin).or_else(|| cmd(s).map(TermKind::Cmd))
     }
 
     /// The unit of the regressor (for the coefficient's unit: force per this).
@@ -249,7 +254,7 @@ impl TermKind {
                 }
             }
             TermKind::Cube(a) => format!("({})^3", unit(a)),
-            TermKind::CmdVel(_, j) => (if j < 3 { "m/s" } else { "rad/s" }).to_string(),
+            TermKind::Lin(j) | TermKind::CmdVel(_, j) => (if j < 3 { "m/s" } else { "rad/s" }).to_string(),
             _ => "-".into(),
         }
     }
@@ -338,6 +343,7 @@ pub fn library(dofs: &[usize], nu_active: &[bool; 6], n_cmd: usize) -> Vec<(u8, 
     let vel: Vec<u8> = (0..6u8).filter(|i| nu_active[*i as usize]).collect();
     let mut forms: Vec<TermKind> = Vec::new();
     for (ia, a) in vel.iter().enumerate() {
+        forms.push(TermKind::Lin(*a));
         for b in vel.iter().skip(ia) {
             forms.push(TermKind::Prod(Sig::Nu(*a), Sig::Nu(*b)));
         }
@@ -364,7 +370,10 @@ pub fn library(dofs: &[usize], nu_active: &[bool; 6], n_cmd: usize) -> Vec<(u8, 
     let mut out = Vec::new();
     for d in dofs {
         for f in &forms {
-            out.push((*d as u8, *f));
+            // A DOF's own linear damping is a base parameter, not a term.
+            if *f != TermKind::Lin(*d as u8) {
+                out.push((*d as u8, *f));
+            }
         }
     }
     out
@@ -412,5 +421,6 @@ mod tests {
         assert!((TermKind::Filtered(1, 1).value(&x) - 0.4).abs() < 1e-12);
         assert!((TermKind::Sin(Angle::Pitch).value(&x) - (-0.2f64).sin()).abs() < 1e-12);
         assert!((TermKind::Cube(Sig::Nu(2)).value(&x) - 0.008).abs() < 1e-12);
+        assert!((TermKind::Lin(5).value(&x) + 0.3).abs() < 1e-12);
     }
 }

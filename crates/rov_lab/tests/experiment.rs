@@ -771,3 +771,183 @@ fn exp_calibrate_seeds() {
         println!("{s}");
     }
 }
+
+fn bluerov_sessions() -> Vec<Run> {
+    let dir = std::path::PathBuf::from(std::env::var("TOPSIDE_SHARED_DIR").unwrap_or_default())
+        .join("real_data/bluerov2_saabmarine_mex");
+    let Ok(rd) = std::fs::read_dir(&dir) else { return vec![] };
+    let mut files: Vec<_> = rd.filter_map(|e| e.ok()).map(|e| e.path()).collect();
+    files.sort();
+    let mut out = Vec::new();
+    for f in files.iter().filter(|f| f.extension().is_some_and(|e| e == "csv")) {
+        let text = std::fs::read_to_string(f).unwrap();
+        let name = f.file_name().unwrap().to_string_lossy().to_string();
+        out.extend(rov_lab::ingest::runs_from_text(&text, &name[8..27]).unwrap());
+    }
+    out
+}
+
+#[test]
+#[ignore = "design experiment: prints tables, asserts nothing; run with --ignored --nocapture"]
+fn exp_bluerov_vehicle() {
+    use rov_lab::calibrate::calibrate;
+    use rov_lab::lm::LmOptions;
+    let runs = bluerov_sessions();
+    if runs.is_empty() {
+        return;
+    }
+    let text = std::fs::read_to_string(
+        std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../config/vehicles/bluerov2_heavy.toml"),
+    )
+    .unwrap();
+    let m = LabModel::from_vehicle_text(&text, "bluerov2_heavy.toml").unwrap();
+    let show = |tag: &str, m: &LabModel, r: &Run| {
+        let mut s = format!("{tag} {}:", r.name);
+        for view in [View::Shooting(20.0), View::FreeRun] {
+            let p = simulate_run(m, r, &view.resets(r));
+            let Ok(p) = p else {
+                s += &format!(" {view:?} diverged");
+                continue;
+            };
+            for ch in [Channel::Depth, Channel::Heading, Channel::Surge, Channel::Pitch, Channel::Roll, Channel::YawRate] {
+                if let Some(mm) = channel_metrics(r, &p, ch) {
+                    s += &format!(" {}{:?}={:.0}", if matches!(view, View::FreeRun) { "fr-" } else { "" }, ch, mm.fit_pct.unwrap_or(f64::NAN));
+                }
+            }
+        }
+        println!("{s}");
+    };
+    for r in &runs {
+        show("nominal", &m, r);
+    }
+    if std::env::var("CV").is_err() {
+        return;
+    }
+    for i in 0..runs.len() {
+        let train: Vec<Run> = runs.iter().enumerate().filter(|(j, _)| *j != i).map(|(_, r)| r.clone()).collect();
+        let t = std::time::Instant::now();
+        let cal = calibrate(&m, &train, &LmOptions { max_iter: 8, threads: 2, ..Default::default() });
+        match cal {
+            Ok(cal) => {
+                println!("fold {i}: {:?}", t.elapsed());
+                show("  held-out", &cal.model, &runs[i]);
+                for f in &cal.fitted {
+                    print!(" {}={:.3}", f.key, f.value);
+                }
+                println!();
+            }
+            Err(e) => println!("fold {i}: {e}"),
+        }
+    }
+}
+
+#[test]
+#[ignore = "design experiment: prints tables, asserts nothing; run with --ignored --nocapture"]
+fn exp_bluerov_trace() {
+    let runs = bluerov_sessions();
+    if runs.is_empty() {
+        return;
+    }
+    let text = std::fs::read_to_string(
+        std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../config/vehicles/bluerov2_heavy.toml"),
+    )
+    .unwrap();
+    let m = LabModel::from_vehicle_text(&text, "bluerov2_heavy.toml").unwrap();
+    let idx: usize = std::env::var("RUN").ok().and_then(|s| s.parse().ok()).unwrap_or(3);
+    let r = &runs[idx];
+    let p = simulate_run(&m, r, &View::Shooting(20.0).resets(r)).unwrap();
+    let chans: Vec<Channel> = match std::env::var("CH").as_deref() {
+        Ok("yaw") => vec![Channel::YawRate, Channel::Heading, Channel::Roll, Channel::Pitch],
+        _ => vec![Channel::Depth, Channel::Heave, Channel::Pitch, Channel::Roll, Channel::Surge],
+    };
+    let step: usize = std::env::var("STEP").ok().and_then(|s| s.parse().ok()).unwrap_or(5);
+    for k in (0..r.len()).step_by(step).take(80) {
+        let c = r.inputs[k];
+        let mut s = format!("t {:6.1} surge {:4.0} heave {:4.0} yaw {:4.0} |", r.t[k], c[4], c[6], c[9]);
+        for ch in chans.iter().copied() {
+            let y = r.channel(ch).map_or(f64::NAN, |v| v[k]);
+            let yh = p.channel(ch).map_or(f64::NAN, |v| v[k]);
+            s += &format!(" {:?} {:7.2}/{:7.2}", ch, y, yh);
+        }
+        println!("{s}");
+    }
+}
+
+#[test]
+#[ignore = "design experiment: prints tables, asserts nothing; run with --ignored --nocapture"]
+fn exp_bluerov_diag() {
+    use rov_lab::diagnose::{DiagnoseOptions, diagnose};
+    let runs = bluerov_sessions();
+    if runs.is_empty() {
+        return;
+    }
+    let text = std::fs::read_to_string(
+        std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../config/vehicles/bluerov2_heavy.toml"),
+    )
+    .unwrap();
+    let m = match std::env::var("KIND").as_deref() {
+        Ok("model3") => LabModel::default_base(BaseKind::Model3).unwrap(),
+        _ => LabModel::from_vehicle_text(&text, "bluerov2_heavy.toml").unwrap(),
+    };
+    let folds: Vec<usize> = std::env::var("FOLDS")
+        .ok()
+        .map(|s| s.split(',').filter_map(|x| x.parse().ok()).collect())
+        .unwrap_or_else(|| (0..runs.len()).collect());
+    for i in folds {
+        let train: Vec<Run> = runs.iter().enumerate().filter(|(j, _)| *j != i).map(|(_, r)| r.clone()).collect();
+        let val = vec![runs[i].clone()];
+        let t = std::time::Instant::now();
+        let d = diagnose(&m, "bluerov", &train, &val, &DiagnoseOptions { threads: 2, ..Default::default() });
+        match d {
+            Ok(d) => {
+                println!("=== fold {i} ({}) {:?}: {}", runs[i].name, t.elapsed(), d.summary);
+                for (k, b) in &d.baseline {
+                    println!("   base {k}: fit shoot {:?} free {:?} rmse {:.3} noise {:.3}", b.fit_pct.map(|x| x.round()), b.fit_pct_free_run.map(|x| x.round()), b.rmse_shooting, b.noise);
+                }
+                let fin = rov_lab::evaluate::evaluate(&d.final_model, &val).unwrap();
+                for (k, c) in &fin.channels {
+                    println!("   final {}: fit shoot {:?} free {:?}", k.name(), c.shooting.fit_pct.map(|x| x.round()), c.free_run.fit_pct.map(|x| x.round()));
+                }
+                for f in d.findings.iter().take(5) {
+                    println!("  {} {:?}: {}", f.effect, f.status, f.explanation);
+                }
+                for n in &d.calibration_notes { println!("  cal: {n}"); }
+                for n in &d.search_notes { println!("  search: {n}"); }
+                for c in &d.calibration { print!(" {}={:.3}", c.key, c.value); }
+                println!();
+            }
+            Err(e) => println!("=== fold {i}: {e}"),
+        }
+    }
+}
+
+#[test]
+#[ignore = "design experiment: prints tables, asserts nothing; run with --ignored --nocapture"]
+fn exp_vehicle_idle() {
+    let text = std::fs::read_to_string(
+        std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../config/vehicles/bluerov2_heavy.toml"),
+    )
+    .unwrap();
+    let m = LabModel::from_vehicle_text(&text, "bluerov2_heavy.toml").unwrap();
+    let roll0: f64 = std::env::var("ROLL0").ok().and_then(|s| s.parse().ok()).unwrap_or(0.2);
+    let p0: f64 = std::env::var("P0").ok().and_then(|s| s.parse().ok()).unwrap_or(0.0);
+    let v0: f64 = std::env::var("V0").ok().and_then(|s| s.parse().ok()).unwrap_or(0.0);
+    let r0: f64 = std::env::var("R0").ok().and_then(|s| s.parse().ok()).unwrap_or(0.0);
+    let mut csv = String::from("t,dt_next,x,y,z,roll,pitch,yaw,u,v,w,p,q,r,ch1_pitch,ch2_roll,ch3_heave,ch4_yaw,ch5_surge,ch6_sway\n");
+    for k in 0..300 {
+        let t = k as f64 * 0.2;
+        csv += &format!("{t},0.2,0,0,0,{roll0},0,0,0,{v0},0,{p0},0,{r0},0,0,0,0,0,0\n");
+    }
+    let runs = rov_lab::ingest::runs_from_text(&csv, "idle").unwrap();
+    let r = &runs[0];
+    let p = simulate_run(&m, r, &[0]).unwrap();
+    for k in (0..r.len()).step_by(10) {
+        println!(
+            "t {:5.1} roll {:8.2} pitch {:8.2} yawrate {:8.3}",
+            r.t[k],
+            p.channel(Channel::Roll).map_or(f64::NAN, |v| v[k]),
+            p.channel(Channel::Pitch).map_or(f64::NAN, |v| v[k]),
+            p.channel(Channel::YawRate).map_or(f64::NAN, |v| v[k]),
+        );
+    }
+}

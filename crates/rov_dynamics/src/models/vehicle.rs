@@ -15,8 +15,9 @@
 //! [added_mass]      diagonal [6]
 //! [damping]         linear [6], quadratic [6]
 //! [options]         munk_moment = "zeroed" | "full"
-//! [commands]        saturation = "clamp" | "scale"
-//! [uncertainty]     thrust_gain, damping, added_mass (relative σ), cg_m, net_weight_n
+//! [commands]        saturation = "clamp" | "scale", gain (optional, default 1)
+//! [uncertainty]     thrust_gain, damping, added_mass (relative σ), cg_m, net_weight_n,
+//!                   thruster_position_m (absolute σ; optional)
 //! [thrusters.NAME]  group, position_m [3], direction [3], curve = "quadratic" | "table",
 //!                   forward/reverse_linear_n, forward/reverse_quadratic_n (quadratic) or
 //!                   forward/reverse_table_n [11] (table, at |u| = 0, 0.1, …, 1),
@@ -29,7 +30,8 @@
 //! Pro 4's per-thruster commands (`port`, `starboard`, `vertical`, `lateral`) or body-axis
 //! demands (`surge`, `sway`, `heave`, `roll`, `pitch`, `yaw`, positive along the body
 //! axes: forward, starboard, down, starboard down, nose up, clockwise seen from above).
-//! Thruster i's command is u_i = Σ_c mix_{i,c} · command_c / 100, saturated to ±1 either
+//! Thruster i's command is u_i = g · Σ_c mix_{i,c} · command_c / 100 (g the optional
+//! `[commands] gain`, a pilot gain setting), saturated to ±1 either
 //! per thruster (`clamp`, ArduSub's behaviour) or by scaling all outputs by the largest
 //! (`scale`). Its force along `direction` is the forward curve for u ≥ 0 and minus the
 //! reverse curve at |u| for u < 0; a table curve is interpolated linearly between its 11
@@ -295,6 +297,9 @@ pub struct Uncertainty {
     pub cg_m: f64,
     /// Net weight W − B, σ in N.
     pub net_weight_n: f64,
+    /// Thruster positions, σ in m (0: the positions are taken as exact; otherwise the model
+    /// lab calibrates the thrust lines' offsets with this prior).
+    pub thruster_position_m: f64,
 }
 
 /// A parsed vehicle definition.
@@ -318,6 +323,8 @@ pub struct VehicleDef {
     pub thrusters: Vec<ThrusterDef>,
     /// Saturation of thruster commands.
     pub saturation: Saturation,
+    /// Gain on every command channel before mixing (a pilot gain setting; 1 = none).
+    pub command_gain: f64,
     /// Documented uncertainties.
     pub uncertainty: Uncertainty,
 }
@@ -425,12 +432,14 @@ impl VehicleDef {
             "scale" => Saturation::Scale,
             _ => Saturation::Clamp,
         };
+        let command_gain = pf.f64_or("commands.gain", 0.01..=10.0, 1.0)?;
         let uncertainty = Uncertainty {
             thrust_gain_rel: pf.f64_or("uncertainty.thrust_gain", 0.0..=5.0, 0.3)?,
             damping_rel: pf.f64_or("uncertainty.damping", 0.0..=5.0, 0.5)?,
             added_mass_rel: pf.f64_or("uncertainty.added_mass", 0.0..=5.0, 0.5)?,
             cg_m: pf.f64_or("uncertainty.cg_m", 0.0..=1.0, 0.01)?,
             net_weight_n: pf.f64_or("uncertainty.net_weight_n", 0.0..=1000.0, 1.0)?,
+            thruster_position_m: pf.f64_or("uncertainty.thruster_position_m", 0.0..=1.0, 0.0)?,
         };
         let group_names: Vec<&str> = ThrusterGroup::ALL.iter().map(|g| g.name()).collect();
         let mut thrusters = Vec::with_capacity(names.len());
@@ -495,6 +504,7 @@ impl VehicleDef {
             gravity_mps2: g,
             thrusters,
             saturation,
+            command_gain,
             uncertainty,
         };
         VehicleDynamics::new(&def).map_err(|e| ConfigError::Inconsistent {
@@ -534,6 +544,7 @@ impl VehicleDef {
                     s += m * c * 0.01;
                 }
             }
+            s *= self.command_gain;
             *ui = s;
             largest = largest.max(s.abs());
         }

@@ -794,6 +794,9 @@ pub(super) fn confirm_term(
 pub(super) fn resemblance(t: &Term) -> &'static str {
     let dof = t.dof;
     match t.kind {
+        TermKind::Lin(_) => {
+            "cross-coupled linear damping (the centre of drag is off the body origin, or a lifting surface)"
+        }
         TermKind::ProdAbs(Sig::Nu(a), Sig::Nu(b)) if a == b && a == dof => {
             "a quadratic drag on its own DOF (already in the base; a calibration problem)"
         }
