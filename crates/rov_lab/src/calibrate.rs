@@ -462,20 +462,48 @@ pub fn calibrate(
         .collect();
     let a = staged_fit(model, runs, &free, opts)?;
     // The short-horizon start can end in a poor basin (a channel the base could fit left
-    // several noise floors off). Then a second start, the same stages begun with a
-    // multiple-shooting fit, and the better of the two by the maximum-likelihood
-    // criterion for unknown per-channel error variances (Σ_c N_c ln MSE_c).
+    // several noise floors off). Then two more starts: the same stages begun with a
+    // multiple-shooting fit, and the first result with every parameter that moved more
+    // than one documented σ from its prior mean put back there (a basin reached by
+    // trading one parameter against another far from where the documentation puts
+    // them). The best by the maximum-likelihood criterion for unknown per-channel error
+    // variances (Σ_c N_c ln MSE_c) is kept.
     if worst_misfit_ratio(&a.model, runs)? <= SECOND_START_RATIO {
         return Ok(a);
     }
-    let Ok(b) = staged_fit_from(model, runs, &free, opts, false) else {
-        return Ok(a);
-    };
-    if det_criterion(&b.model, runs)? < det_criterion(&a.model, runs)? {
-        Ok(b)
-    } else {
-        Ok(a)
+    let mut best_crit = det_criterion(&a.model, runs)?;
+    let mut best = a;
+    if let Ok(b) = staged_fit_from(model, runs, &free, opts, false) {
+        let c = det_criterion(&b.model, runs)?;
+        if c < best_crit {
+            best_crit = c;
+            best = b;
+        }
     }
+    if worst_misfit_ratio(&best.model, runs)? <= SECOND_START_RATIO {
+        return Ok(best);
+    }
+    let values = best.model.values(&free);
+    let mut moved = false;
+    let reset: Vec<f64> = free
+        .iter()
+        .zip(&values)
+        .map(|(p, v)| match model.prior_of(*p) {
+            Some((mean, sigma)) if (v - mean).abs() > sigma => {
+                moved = true;
+                mean
+            }
+            _ => *v,
+        })
+        .collect();
+    if moved
+        && let Ok(start) = best.model.with(&free, &reset)
+        && let Ok(c) = staged_fit_from(&start, runs, &free, opts, true)
+        && det_criterion(&c.model, runs)? < best_crit
+    {
+        return Ok(c);
+    }
+    Ok(best)
 }
 
 /// A calibration whose worst channel misfits its training runs by more than this many

@@ -564,7 +564,9 @@ impl LabModel {
         }
         if self.kind == BaseKind::Vehicle && !self.has_attitude() {
             return match e {
-                EffectId::RestoringOffset | EffectId::AttitudeBias | EffectId::ThrusterMomentArm => Some(
+                EffectId::RestoringOffset
+                | EffectId::AttitudeBias
+                | EffectId::ThrusterMomentArm => Some(
                     "it acts on pitch and roll, which this vehicle's structure locks (use structure = \"fossen6\")",
                 ),
                 _ => None,
@@ -778,7 +780,11 @@ impl LabModel {
                 Param::CgZ | Param::CgX | Param::CgY | Param::BiasRoll | Param::BiasPitch => six,
                 // A vehicle's moment arms shift its thrusters from the file's positions:
                 // the non-vertical thrusters' height, the vertical ones' x and y.
-                Param::ArmZh => six && self.thr_group[..self.n_thr].iter().any(|g| *g != Thr::Vertical),
+                Param::ArmZh => {
+                    six && self.thr_group[..self.n_thr]
+                        .iter()
+                        .any(|g| *g != Thr::Vertical)
+                }
                 Param::ArmXv | Param::ArmYv => six && self.has_group(Thr::Vertical),
                 Param::TorqueV | Param::TorqueH => false,
                 Param::TrimDeg => !active[4],

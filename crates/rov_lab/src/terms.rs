@@ -235,7 +235,9 @@ impl TermKind {
             }
             return Some(TermKind::Prod(sig(a)?, sig(b)?));
         }
-        nu(s).map(TermKind::Lin).or_else(|| cmd(s).map(TermKind::Cmd))
+        nu(s)
+            .map(TermKind::Lin)
+            .or_else(|| cmd(s).map(TermKind::Cmd))
     }
 
     /// The unit of the regressor (for the coefficient's unit: force per this).
@@ -254,7 +256,9 @@ impl TermKind {
                 }
             }
             TermKind::Cube(a) => format!("({})^3", unit(a)),
-            TermKind::Lin(j) | TermKind::CmdVel(_, j) => (if j < 3 { "m/s" } else { "rad/s" }).to_string(),
+            TermKind::Lin(j) | TermKind::CmdVel(_, j) => {
+                (if j < 3 { "m/s" } else { "rad/s" }).to_string()
+            }
             _ => "-".into(),
         }
     }

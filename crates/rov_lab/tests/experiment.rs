@@ -733,11 +733,21 @@ fn exp_calibrate_seeds() {
         Ok("model2") => BaseKind::Model2,
         _ => BaseKind::Model3,
     };
-    for seed in 100..114u64 {
-        let (tr, va) = case_len(seed, &[], 360.0, 180.0);
+    let seeds: Vec<u64> = std::env::var("SEEDS")
+        .ok()
+        .map(|s| s.split(',').filter_map(|x| x.parse().ok()).collect())
+        .unwrap_or_else(|| (100..114).collect());
+    let hidden: Vec<Hidden> = match std::env::var("HID").as_deref() {
+        Ok("yawspeed") => vec![Hidden::YawSpeedDamp(0.15)],
+        Ok("heaverr") => vec![Hidden::HeaveYawSq(0.06)],
+        _ => vec![],
+    };
+    for seed in seeds {
+        let (tr, va) = case_len(seed, &hidden, 360.0, 180.0);
         let tr = Run::from_series(&tr, "train").unwrap();
         let va = Run::from_series(&va, "val").unwrap();
         let m = LabModel::default_base(kind).unwrap();
+        eprintln!("{}", common::truth_summary(seed, 0.2));
         let t = std::time::Instant::now();
         let cal = calibrate(
             &m,
@@ -751,6 +761,10 @@ fn exp_calibrate_seeds() {
         .unwrap();
         let el = t.elapsed();
         let mut s = format!("seed {seed} {:.2}s:", el.as_secs_f64());
+        for f in &cal.fitted {
+            eprint!(" {}={:.3}", f.key, f.value);
+        }
+        eprintln!();
         for (tag, run) in [("tr", &tr), ("va", &va)] {
             let p = simulate_run(&cal.model, run, &View::Shooting(20.0).resets(run)).unwrap();
             for ch in [
@@ -775,11 +789,16 @@ fn exp_calibrate_seeds() {
 fn bluerov_sessions() -> Vec<Run> {
     let dir = std::path::PathBuf::from(std::env::var("TOPSIDE_SHARED_DIR").unwrap_or_default())
         .join("real_data/bluerov2_saabmarine_mex");
-    let Ok(rd) = std::fs::read_dir(&dir) else { return vec![] };
+    let Ok(rd) = std::fs::read_dir(&dir) else {
+        return vec![];
+    };
     let mut files: Vec<_> = rd.filter_map(|e| e.ok()).map(|e| e.path()).collect();
     files.sort();
     let mut out = Vec::new();
-    for f in files.iter().filter(|f| f.extension().is_some_and(|e| e == "csv")) {
+    for f in files
+        .iter()
+        .filter(|f| f.extension().is_some_and(|e| e == "csv"))
+    {
         let text = std::fs::read_to_string(f).unwrap();
         let name = f.file_name().unwrap().to_string_lossy().to_string();
         out.extend(rov_lab::ingest::runs_from_text(&text, &name[8..27]).unwrap());
@@ -797,7 +816,8 @@ fn exp_bluerov_vehicle() {
         return;
     }
     let text = std::fs::read_to_string(
-        std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../config/vehicles/bluerov2_heavy.toml"),
+        std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+            .join("../../config/vehicles/bluerov2_heavy.toml"),
     )
     .unwrap();
     let m = LabModel::from_vehicle_text(&text, "bluerov2_heavy.toml").unwrap();
@@ -809,9 +829,25 @@ fn exp_bluerov_vehicle() {
                 s += &format!(" {view:?} diverged");
                 continue;
             };
-            for ch in [Channel::Depth, Channel::Heading, Channel::Surge, Channel::Pitch, Channel::Roll, Channel::YawRate] {
+            for ch in [
+                Channel::Depth,
+                Channel::Heading,
+                Channel::Surge,
+                Channel::Pitch,
+                Channel::Roll,
+                Channel::YawRate,
+            ] {
                 if let Some(mm) = channel_metrics(r, &p, ch) {
-                    s += &format!(" {}{:?}={:.0}", if matches!(view, View::FreeRun) { "fr-" } else { "" }, ch, mm.fit_pct.unwrap_or(f64::NAN));
+                    s += &format!(
+                        " {}{:?}={:.0}",
+                        if matches!(view, View::FreeRun) {
+                            "fr-"
+                        } else {
+                            ""
+                        },
+                        ch,
+                        mm.fit_pct.unwrap_or(f64::NAN)
+                    );
                 }
             }
         }
@@ -824,9 +860,22 @@ fn exp_bluerov_vehicle() {
         return;
     }
     for i in 0..runs.len() {
-        let train: Vec<Run> = runs.iter().enumerate().filter(|(j, _)| *j != i).map(|(_, r)| r.clone()).collect();
+        let train: Vec<Run> = runs
+            .iter()
+            .enumerate()
+            .filter(|(j, _)| *j != i)
+            .map(|(_, r)| r.clone())
+            .collect();
         let t = std::time::Instant::now();
-        let cal = calibrate(&m, &train, &LmOptions { max_iter: 8, threads: 2, ..Default::default() });
+        let cal = calibrate(
+            &m,
+            &train,
+            &LmOptions {
+                max_iter: 8,
+                threads: 2,
+                ..Default::default()
+            },
+        );
         match cal {
             Ok(cal) => {
                 println!("fold {i}: {:?}", t.elapsed());
@@ -849,21 +898,42 @@ fn exp_bluerov_trace() {
         return;
     }
     let text = std::fs::read_to_string(
-        std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../config/vehicles/bluerov2_heavy.toml"),
+        std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+            .join("../../config/vehicles/bluerov2_heavy.toml"),
     )
     .unwrap();
     let m = LabModel::from_vehicle_text(&text, "bluerov2_heavy.toml").unwrap();
-    let idx: usize = std::env::var("RUN").ok().and_then(|s| s.parse().ok()).unwrap_or(3);
+    let idx: usize = std::env::var("RUN")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(3);
     let r = &runs[idx];
     let p = simulate_run(&m, r, &View::Shooting(20.0).resets(r)).unwrap();
     let chans: Vec<Channel> = match std::env::var("CH").as_deref() {
-        Ok("yaw") => vec![Channel::YawRate, Channel::Heading, Channel::Roll, Channel::Pitch],
-        _ => vec![Channel::Depth, Channel::Heave, Channel::Pitch, Channel::Roll, Channel::Surge],
+        Ok("yaw") => vec![
+            Channel::YawRate,
+            Channel::Heading,
+            Channel::Roll,
+            Channel::Pitch,
+        ],
+        _ => vec![
+            Channel::Depth,
+            Channel::Heave,
+            Channel::Pitch,
+            Channel::Roll,
+            Channel::Surge,
+        ],
     };
-    let step: usize = std::env::var("STEP").ok().and_then(|s| s.parse().ok()).unwrap_or(5);
+    let step: usize = std::env::var("STEP")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(5);
     for k in (0..r.len()).step_by(step).take(80) {
         let c = r.inputs[k];
-        let mut s = format!("t {:6.1} surge {:4.0} heave {:4.0} yaw {:4.0} |", r.t[k], c[4], c[6], c[9]);
+        let mut s = format!(
+            "t {:6.1} surge {:4.0} heave {:4.0} yaw {:4.0} |",
+            r.t[k], c[4], c[6], c[9]
+        );
         for ch in chans.iter().copied() {
             let y = r.channel(ch).map_or(f64::NAN, |v| v[k]);
             let yh = p.channel(ch).map_or(f64::NAN, |v| v[k]);
@@ -882,7 +952,8 @@ fn exp_bluerov_diag() {
         return;
     }
     let text = std::fs::read_to_string(
-        std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../config/vehicles/bluerov2_heavy.toml"),
+        std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+            .join("../../config/vehicles/bluerov2_heavy.toml"),
     )
     .unwrap();
     let m = match std::env::var("KIND").as_deref() {
@@ -894,26 +965,62 @@ fn exp_bluerov_diag() {
         .map(|s| s.split(',').filter_map(|x| x.parse().ok()).collect())
         .unwrap_or_else(|| (0..runs.len()).collect());
     for i in folds {
-        let train: Vec<Run> = runs.iter().enumerate().filter(|(j, _)| *j != i).map(|(_, r)| r.clone()).collect();
+        let train: Vec<Run> = runs
+            .iter()
+            .enumerate()
+            .filter(|(j, _)| *j != i)
+            .map(|(_, r)| r.clone())
+            .collect();
         let val = vec![runs[i].clone()];
         let t = std::time::Instant::now();
-        let d = diagnose(&m, "bluerov", &train, &val, &DiagnoseOptions { threads: 2, ..Default::default() });
+        let d = diagnose(
+            &m,
+            "bluerov",
+            &train,
+            &val,
+            &DiagnoseOptions {
+                threads: 2,
+                ..Default::default()
+            },
+        );
         match d {
             Ok(d) => {
-                println!("=== fold {i} ({}) {:?}: {}", runs[i].name, t.elapsed(), d.summary);
+                println!(
+                    "=== fold {i} ({}) {:?}: {}",
+                    runs[i].name,
+                    t.elapsed(),
+                    d.summary
+                );
                 for (k, b) in &d.baseline {
-                    println!("   base {k}: fit shoot {:?} free {:?} rmse {:.3} noise {:.3}", b.fit_pct.map(|x| x.round()), b.fit_pct_free_run.map(|x| x.round()), b.rmse_shooting, b.noise);
+                    println!(
+                        "   base {k}: fit shoot {:?} free {:?} rmse {:.3} noise {:.3}",
+                        b.fit_pct.map(|x| x.round()),
+                        b.fit_pct_free_run.map(|x| x.round()),
+                        b.rmse_shooting,
+                        b.noise
+                    );
                 }
                 let fin = rov_lab::evaluate::evaluate(&d.final_model, &val).unwrap();
                 for (k, c) in &fin.channels {
-                    println!("   final {}: fit shoot {:?} free {:?}", k.name(), c.shooting.fit_pct.map(|x| x.round()), c.free_run.fit_pct.map(|x| x.round()));
+                    println!(
+                        "   final {}: fit shoot {:?} free {:?}",
+                        k.name(),
+                        c.shooting.fit_pct.map(|x| x.round()),
+                        c.free_run.fit_pct.map(|x| x.round())
+                    );
                 }
                 for f in d.findings.iter().take(5) {
                     println!("  {} {:?}: {}", f.effect, f.status, f.explanation);
                 }
-                for n in &d.calibration_notes { println!("  cal: {n}"); }
-                for n in &d.search_notes { println!("  search: {n}"); }
-                for c in &d.calibration { print!(" {}={:.3}", c.key, c.value); }
+                for n in &d.calibration_notes {
+                    println!("  cal: {n}");
+                }
+                for n in &d.search_notes {
+                    println!("  search: {n}");
+                }
+                for c in &d.calibration {
+                    print!(" {}={:.3}", c.key, c.value);
+                }
                 println!();
             }
             Err(e) => println!("=== fold {i}: {e}"),
@@ -925,15 +1032,30 @@ fn exp_bluerov_diag() {
 #[ignore = "design experiment: prints tables, asserts nothing; run with --ignored --nocapture"]
 fn exp_vehicle_idle() {
     let text = std::fs::read_to_string(
-        std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../config/vehicles/bluerov2_heavy.toml"),
+        std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+            .join("../../config/vehicles/bluerov2_heavy.toml"),
     )
     .unwrap();
     let m = LabModel::from_vehicle_text(&text, "bluerov2_heavy.toml").unwrap();
-    let roll0: f64 = std::env::var("ROLL0").ok().and_then(|s| s.parse().ok()).unwrap_or(0.2);
-    let p0: f64 = std::env::var("P0").ok().and_then(|s| s.parse().ok()).unwrap_or(0.0);
-    let v0: f64 = std::env::var("V0").ok().and_then(|s| s.parse().ok()).unwrap_or(0.0);
-    let r0: f64 = std::env::var("R0").ok().and_then(|s| s.parse().ok()).unwrap_or(0.0);
-    let mut csv = String::from("t,dt_next,x,y,z,roll,pitch,yaw,u,v,w,p,q,r,ch1_pitch,ch2_roll,ch3_heave,ch4_yaw,ch5_surge,ch6_sway\n");
+    let roll0: f64 = std::env::var("ROLL0")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(0.2);
+    let p0: f64 = std::env::var("P0")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(0.0);
+    let v0: f64 = std::env::var("V0")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(0.0);
+    let r0: f64 = std::env::var("R0")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(0.0);
+    let mut csv = String::from(
+        "t,dt_next,x,y,z,roll,pitch,yaw,u,v,w,p,q,r,ch1_pitch,ch2_roll,ch3_heave,ch4_yaw,ch5_surge,ch6_sway\n",
+    );
     for k in 0..300 {
         let t = k as f64 * 0.2;
         csv += &format!("{t},0.2,0,0,0,{roll0},0,0,0,{v0},0,{p0},0,{r0},0,0,0,0,0,0\n");
@@ -950,4 +1072,102 @@ fn exp_vehicle_idle() {
             p.channel(Channel::YawRate).map_or(f64::NAN, |v| v[k]),
         );
     }
+}
+
+#[test]
+#[ignore = "design experiment: prints tables, asserts nothing; run with --ignored --nocapture"]
+fn exp_seed22_truth_params() {
+    use rov_lab::params::{Axis, Param, Thr};
+    let (tr, va) = case_len(22, &[], 360.0, 180.0);
+    let tr = Run::from_series(&tr, "train").unwrap();
+    let va = Run::from_series(&va, "val").unwrap();
+    let m = LabModel::default_base(BaseKind::Model3).unwrap();
+    let ps = [
+        Param::ThrustLin(Thr::Vertical),
+        Param::ThrustQuad(Thr::Vertical),
+        Param::ThrustLin(Thr::Port),
+        Param::ThrustQuad(Thr::Port),
+        Param::ThrustLin(Thr::Starboard),
+        Param::ThrustQuad(Thr::Starboard),
+        Param::DragLin(Axis::Heave),
+        Param::DragQuad(Axis::Heave),
+        Param::DragLin(Axis::Yaw),
+        Param::DragQuad(Axis::Yaw),
+        Param::CgZ,
+    ];
+    let vals = [
+        0.879, 1.011, 1.012, 0.827, 0.946, 0.830, 4.186, 36.887, 0.0435, 0.8123, 0.00631,
+    ];
+    let mt = m.with(&ps, &vals).unwrap();
+    for (tag, run) in [("tr", &tr), ("va", &va)] {
+        let p = simulate_run(&mt, run, &View::Shooting(20.0).resets(run)).unwrap();
+        let mut s = String::from(tag);
+        for ch in [
+            Channel::Depth,
+            Channel::Heading,
+            Channel::Pitch,
+            Channel::Roll,
+        ] {
+            if let Some(mm) = channel_metrics(run, &p, ch) {
+                s += &format!(
+                    " {:?} {:.1}",
+                    ch,
+                    mm.rmse / run.noise[rov_lab::data::ch_index(ch)]
+                );
+            }
+        }
+        println!("{s}");
+    }
+}
+
+#[test]
+#[ignore = "design experiment: prints tables, asserts nothing; run with --ignored --nocapture"]
+fn exp_term_sizes() {
+    let seed: u64 = std::env::var("SEED")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(3);
+    let (a, _) = case_len(seed, &[], 360.0, 180.0);
+    let k = |n: &str, d: f64| {
+        std::env::var(n)
+            .ok()
+            .and_then(|s| s.parse().ok())
+            .unwrap_or(d)
+    };
+    for h in [
+        Hidden::HeaveYawSq(k("K1", 0.8)),
+        Hidden::YawSpeedDamp(k("K2", 0.6)),
+        Hidden::HeaveLift(k("K3", -2.5)),
+        Hidden::TorqueV(0.003),
+    ] {
+        let (b, _) = case_len(seed, &[h], 360.0, 180.0);
+        let ra = Run::from_series(&a, "a").unwrap();
+        let rb = Run::from_series(&b, "b").unwrap();
+        let mut s = format!("{h:?}:");
+        for ch in [
+            Channel::Depth,
+            Channel::Heading,
+            Channel::Pitch,
+            Channel::Roll,
+        ] {
+            let (Some(ya), Some(yb)) = (ra.channel(ch), rb.channel(ch)) else {
+                continue;
+            };
+            let d = ya.iter().zip(yb).map(|(x, y)| (x - y).powi(2)).sum::<f64>() / ya.len() as f64;
+            s += &format!(
+                " {ch:?} rms diff {:.3} (noise {:.3})",
+                d.sqrt(),
+                ra.noise[rov_lab::data::ch_index(ch)]
+            );
+        }
+        println!("{s}");
+    }
+    // Speed ranges from the depth/heading derivatives.
+    let r = Run::from_series(&a, "a").unwrap();
+    let h = r.channel(Channel::Heading).unwrap();
+    let mut rmax: f64 = 0.0;
+    for k in 1..h.len() {
+        rmax = rmax.max(((h[k] - h[k - 1]) / (r.t[k] - r.t[k - 1])).abs());
+    }
+    println!("max heading rate {rmax:.1} deg/s");
 }

@@ -178,7 +178,27 @@ fn diagnose_json_has_the_documented_shape() {
         "model1 does not predict pitch: {ch}"
     );
     let f = j["findings"].as_array().unwrap();
-    assert_eq!(f.len(), 17, "every catalog effect appears once");
+    assert_eq!(
+        f.iter().filter(|x| x["kind"] == "catalog").count(),
+        17,
+        "every catalog effect appears once"
+    );
+    // Discovered terms (if the catalog left a channel inconsistent) carry their formula.
+    for x in f.iter().filter(|x| x["kind"] == "discovered") {
+        assert!(x["term"].is_string() && x["resembles"].is_string(), "{x}");
+        assert!(x["effect"].as_str().unwrap().starts_with("term:"), "{x}");
+    }
+    // The verdict and its test.
+    assert!(
+        ["adequate", "explained", "unexplained"].contains(&j["verdict"].as_str().unwrap()),
+        "{}",
+        j["verdict"]
+    );
+    assert!(j["unexplained"].is_array() && j["data"].is_array());
+    for c in j["consistency"].as_array().unwrap() {
+        assert!(c["channel"].is_string() && c["consistent"].is_boolean());
+        assert!(c["ratio"].is_number() && c["n_eff"].is_number());
+    }
     for x in f {
         assert!(x["effect"].is_string() && x["significant"].is_boolean());
         assert!(x["channels"].is_array() && x["params"].is_object());

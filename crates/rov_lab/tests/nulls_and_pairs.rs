@@ -37,6 +37,12 @@ fn null_seeds(seeds: std::ops::Range<u64>) {
             d.findings[0].explanation
         );
         assert!(d.findings.iter().all(|f| !f.significant));
+        // Nor a term from outside the catalog.
+        assert!(
+            d.accepted_terms.is_empty(),
+            "seed {seed}: effect-free data gained terms {:?}",
+            d.accepted_terms
+        );
         assert!(d.summary.starts_with("nothing significant"));
     }
 }

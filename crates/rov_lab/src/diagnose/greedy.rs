@@ -31,6 +31,12 @@ pub(super) struct Greedy<'a> {
 }
 
 impl<'a> Greedy<'a> {
+    /// The base parameters' sensitivity columns of the multiple-shooting screening
+    /// objective (weights `scales.shoot`, linearised at the calibrated base).
+    pub(super) fn shooting_columns(&self) -> &ColumnCache {
+        &self.cache_shoot
+    }
+
     /// Starts from a calibration.
     pub(super) fn new(
         cal: &Calibration,

@@ -343,7 +343,15 @@ pub fn diagnose(
             .iter()
             .map(|c| (c.effect, c.params.clone()))
             .collect();
-        let (picks, notes) = discovery::search(&g.current, train, &g.current_free, &catalog)?;
+        let (picks, notes) = discovery::search(
+            &g.current,
+            train,
+            &g.current_free,
+            &catalog,
+            &g.scales,
+            g.shooting_columns(),
+            opts.threads,
+        )?;
         for (dof, formula, e) in &notes.catalog_like {
             let s = format!(
                 "the residual {} follows {formula}, which is the signature of the catalog effect {} (reported under it, not as a new term)",

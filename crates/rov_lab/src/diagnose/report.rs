@@ -40,6 +40,21 @@ pub struct ParamReport {
     pub std: Option<f64>,
     /// Display unit.
     pub unit: String,
+    /// 95 % confidence interval (value ± 1.96 std, from the fit's covariance), if known.
+    pub ci95: Option<[f64; 2]>,
+}
+
+impl ParamReport {
+    /// A report with its 95 % interval from the standard deviation.
+    pub fn new(value: f64, std: Option<f64>, unit: String) -> Self {
+        let std = std.filter(|s| s.is_finite());
+        ParamReport {
+            value,
+            std,
+            unit,
+            ci95: std.map(|s| [value - 1.96 * s, value + 1.96 * s]),
+        }
+    }
 }
 
 /// One effect's evidence card.
@@ -83,6 +98,8 @@ pub struct Finding {
     pub kind: String,
     /// A discovered term's formula and DOF in words (`None` for catalog effects).
     pub term: Option<String>,
+    /// What known physics a discovered term resembles (`None` for catalog effects).
+    pub resembles: Option<String>,
     /// Channels the finding makes clearly worse in either view, with what that suggests.
     pub conflicts: Vec<String>,
 }
@@ -181,6 +198,7 @@ impl Finding {
             round: 0,
             kind: "catalog".into(),
             term: None,
+            resembles: None,
             conflicts: vec![],
         }
     }
@@ -198,6 +216,7 @@ impl Finding {
                 .unwrap_or("force"),
             t.kind.formula(cmd_names)
         ));
+        f.resembles = Some(super::discovery::resemblance(t).to_string());
         f
     }
 }
@@ -214,29 +233,21 @@ pub(super) fn param_reports(c: &Confirmed) -> BTreeMap<String, ParamReport> {
                 let s = t.scale.max(1e-300);
                 out.insert(
                     "coefficient".into(),
-                    ParamReport {
-                        value: t.coef,
-                        std: (f.std / s).is_finite().then_some(f.std / s),
-                        unit: format!("{} per {}", t.force_unit(), t.kind.regressor_unit()),
-                    },
+                    ParamReport::new(
+                        t.coef,
+                        Some(f.std / s),
+                        format!("{} per {}", t.force_unit(), t.kind.regressor_unit()),
+                    ),
                 );
                 out.insert(
                     "force_at_typical_size".into(),
-                    ParamReport {
-                        value: t.coef * t.scale,
-                        std: f.std.is_finite().then_some(f.std),
-                        unit: t.force_unit().into(),
-                    },
+                    ParamReport::new(t.coef * t.scale, Some(f.std), t.force_unit().into()),
                 );
                 continue;
             }
             out.insert(
                 f.key.clone(),
-                ParamReport {
-                    value: f.value,
-                    std: f.std.is_finite().then_some(f.std),
-                    unit: f.unit.clone(),
-                },
+                ParamReport::new(f.value, Some(f.std), f.unit.clone()),
             );
         }
     }

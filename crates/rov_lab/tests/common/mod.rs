@@ -57,6 +57,22 @@ pub enum Hidden {
     CompassDev(f64),
     /// Pitch reading bias, deg.
     PitchBias(f64),
+    /// Outside the catalog: heave force k·r² (N per (rad/s)²; a yaw–heave coupling).
+    HeaveYawSq(f64),
+    /// Outside the catalog: yaw moment −k·r·|u| (N m per rad/s per m/s; yaw damping that
+    /// grows with forward speed).
+    YawSpeedDamp(f64),
+    /// Outside the catalog: heave force k·u·|u| (N per (m/s)²; a lift growing with the
+    /// square of the surge speed).
+    HeaveLift(f64),
+}
+
+/// Out-of-catalog generalised forces of the truth (see [`Hidden`]).
+#[derive(Debug, Clone, Copy, Default)]
+struct OutsideTerms {
+    heave_rr: f64,
+    yaw_r_absu: f64,
+    heave_u_absu: f64,
 }
 
 #[derive(Debug, Clone)]
@@ -68,6 +84,7 @@ struct TruthModel {
     torque_v: f64,
     drag_heave_ratio: f64,
     drag_heave_q: f64,
+    outside: OutsideTerms,
 }
 
 impl TruthModel {
@@ -123,6 +140,10 @@ impl VehicleModel for TruthModel {
         if self.drag_heave_ratio != 1.0 && w < 0.0 {
             t[2] += (self.drag_heave_ratio - 1.0) * self.drag_heave_q * w * w;
         }
+        let (u, r) = (state.nu[0], state.nu[5]);
+        let o = &self.outside;
+        t[2] += o.heave_rr * r * r + o.heave_u_absu * u * u.abs();
+        t[5] -= o.yaw_r_absu * r * u.abs();
         self.base.dynamics(state, &t, current)
     }
     fn n_extra_states(&self) -> usize {
@@ -196,6 +217,7 @@ fn truth_model(seed: u64, frac: f64, hidden: &[Hidden]) -> (TruthModel, Option<T
     let mut torque_v = 0.0;
     let mut drag_ratio = 1.0;
     let mut tether = None;
+    let mut outside = OutsideTerms::default();
     for h in hidden {
         match *h {
             Hidden::AsymVertical(r) => {
@@ -239,6 +261,9 @@ fn truth_model(seed: u64, frac: f64, hidden: &[Hidden]) -> (TruthModel, Option<T
                 p.process.hydrostatics.cg_from_co_m.x = x;
             }
             Hidden::DragHeave(r) => drag_ratio = r,
+            Hidden::HeaveYawSq(k) => outside.heave_rr = k,
+            Hidden::YawSpeedDamp(k) => outside.yaw_r_absu = k,
+            Hidden::HeaveLift(k) => outside.heave_u_absu = k,
             Hidden::Tether(f, az_deg) => {
                 let a = az_deg.to_radians();
                 tether = Some(TetherForce {
@@ -260,6 +285,7 @@ fn truth_model(seed: u64, frac: f64, hidden: &[Hidden]) -> (TruthModel, Option<T
             torque_v,
             drag_heave_ratio: drag_ratio,
             drag_heave_q,
+            outside,
         },
         tether,
     )
