@@ -462,28 +462,16 @@ pub fn calibrate(
         .collect();
     let a = staged_fit(model, runs, &free, opts)?;
     // The short-horizon start can end in a poor basin (a channel the base could fit left
-    // several noise floors off). Then two more starts: the same stages begun with a
-    // multiple-shooting fit, and the first result with every parameter that moved more
-    // than one documented σ from its prior mean put back there (a basin reached by
-    // trading one parameter against another far from where the documentation puts
-    // them). The best by the maximum-likelihood criterion for unknown per-channel error
-    // variances (Σ_c N_c ln MSE_c) is kept.
+    // several noise floors off). Then one more start: the first result with every
+    // parameter that moved more than one documented σ from its prior mean put back there
+    // (a basin reached by trading one parameter against another far from where the
+    // documentation puts them), or, when none did, the same stages begun with a
+    // multiple-shooting fit. The better by the maximum-likelihood criterion for unknown
+    // per-channel error variances (Σ_c N_c ln MSE_c) is kept.
     if worst_misfit_ratio(&a.model, runs)? <= SECOND_START_RATIO {
         return Ok(a);
     }
-    let mut best_crit = det_criterion(&a.model, runs)?;
-    let mut best = a;
-    if let Ok(b) = staged_fit_from(model, runs, &free, opts, false) {
-        let c = det_criterion(&b.model, runs)?;
-        if c < best_crit {
-            best_crit = c;
-            best = b;
-        }
-    }
-    if worst_misfit_ratio(&best.model, runs)? <= SECOND_START_RATIO {
-        return Ok(best);
-    }
-    let values = best.model.values(&free);
+    let values = a.model.values(&free);
     let mut moved = false;
     let reset: Vec<f64> = free
         .iter()
@@ -496,14 +484,18 @@ pub fn calibrate(
             _ => *v,
         })
         .collect();
-    if moved
-        && let Ok(start) = best.model.with(&free, &reset)
-        && let Ok(c) = staged_fit_from(&start, runs, &free, opts, true)
-        && det_criterion(&c.model, runs)? < best_crit
-    {
-        return Ok(c);
+    let bar = det_criterion(&a.model, runs)?;
+    let second = if moved {
+        a.model
+            .with(&free, &reset)
+            .and_then(|start| staged_fit_from(&start, runs, &free, opts, true, Some(bar)))
+    } else {
+        staged_fit_from(model, runs, &free, opts, false, Some(bar))
+    };
+    match second {
+        Ok(b) if det_criterion(&b.model, runs)? < bar => Ok(b),
+        _ => Ok(a),
     }
-    Ok(best)
 }
 
 /// A calibration whose worst channel misfits its training runs by more than this many
@@ -568,17 +560,21 @@ pub fn staged_fit(
     free: &[Param],
     opts: &LmOptions,
 ) -> Result<Calibration, LabError> {
-    staged_fit_from(model, runs, free, opts, true)
+    staged_fit_from(model, runs, free, opts, true, None)
 }
 
 /// [`staged_fit`], its very first fit on the short horizon (`short_first`) or in
-/// multiple shooting.
+/// multiple shooting. With `abandon_above`, a start whose first multiple-shooting fit is
+/// no better than that criterion (Σ_c N_c ln MSE_c) stops there: a further start that is
+/// not already better after its first stages seldom wins, and the stages after them
+/// are most of the cost.
 fn staged_fit_from(
     model: &LabModel,
     runs: &[Run],
     free: &[Param],
     opts: &LmOptions,
     short_first: bool,
+    abandon_above: Option<f64>,
 ) -> Result<Calibration, LabError> {
     let dt = runs.first().map_or(0.05, |r| r.median_dt()).max(1e-3);
     let k = (SHORT_HORIZON_S / dt).round().max(2.0) as usize;
@@ -601,6 +597,11 @@ fn staged_fit_from(
             ..*opts
         },
     )?;
+    if let Some(bar) = abandon_above
+        && det_criterion(&noise_fit.model, runs)? >= bar
+    {
+        return Ok(noise_fit);
+    }
     // The reweighting below must judge a converged fit: a channel a still-moving fit has
     // not reached yet is not a structural misfit. Continue (at most twice more) until
     // the noise-weighted fit has converged.

@@ -250,7 +250,7 @@ pub fn effective_n_bartlett(pieces: &[Vec<f64>], max_lag: usize) -> f64 {
 /// The fixed base parameters whose documented uncertainty counts as parameter
 /// uncertainty: applicable, with a documented prior, not calibrated, not a parameter of a
 /// catalog effect (those are diagnosed, not forgiven).
-fn fixed_uncertain(model: &LabModel, free: &[Param]) -> Vec<Param> {
+pub(crate) fn fixed_uncertain(model: &LabModel, free: &[Param]) -> Vec<Param> {
     let mut out = Vec::new();
     for p in Param::all() {
         let base_only = matches!(

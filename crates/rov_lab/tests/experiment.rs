@@ -609,8 +609,18 @@ fn exp_null() {
             },
         )
         .unwrap();
-        if !d.accepted.is_empty() {
+        if !d.accepted.is_empty() || !d.accepted_terms.is_empty() {
             fp += 1;
+        }
+        if !d.accepted_terms.is_empty() {
+            println!(
+                "  terms {:?} verdict {:?}",
+                d.accepted_terms
+                    .iter()
+                    .map(|t| t.id(&["port", "starboard", "vertical"]))
+                    .collect::<Vec<_>>(),
+                d.verdict
+            );
         }
         let f = &d.findings[0];
         println!(
@@ -1170,4 +1180,76 @@ fn exp_term_sizes() {
         rmax = rmax.max(((h[k] - h[k - 1]) / (r.t[k] - r.t[k - 1])).abs());
     }
     println!("max heading rate {rmax:.1} deg/s");
+}
+
+#[test]
+#[ignore = "design experiment: prints tables, asserts nothing; run with --ignored --nocapture"]
+fn exp_diag_cost() {
+    let cpu = || -> f64 {
+        let s = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
+        let f: Vec<&str> = s
+            .rsplit(')')
+            .next()
+            .unwrap_or("")
+            .split_whitespace()
+            .collect();
+        let t = |i: usize| f.get(i).and_then(|x| x.parse::<f64>().ok()).unwrap_or(0.0);
+        (t(11) + t(12)) / 100.0
+    };
+    use rov_lab::calibrate::{Objective, View, calibrate};
+    use rov_lab::diagnose::{DiagnoseOptions, diagnose};
+    use rov_lab::lm::LmOptions;
+    for (name, hidden) in [
+        ("free", vec![]),
+        ("lag", vec![Hidden::Lag(0.2)]),
+        ("lift", vec![Hidden::HeaveLift(-0.3)]),
+    ] {
+        let (tr, va) = case_len(7, &hidden, 600.0, 300.0);
+        let tr = Run::from_series(&tr, "train").unwrap();
+        let va = Run::from_series(&va, "val").unwrap();
+        let m = LabModel::default_base(BaseKind::Model3).unwrap();
+        let runs = vec![tr.clone()];
+        let obj = Objective::new(&m, &runs, View::Shooting(20.0));
+        let t = std::time::Instant::now();
+        for _ in 0..10 {
+            let _ = obj.residuals(&m).unwrap();
+        }
+        let one = t.elapsed() / 10;
+        let s0 = rov_lab::sim::simulation_count();
+        let t = std::time::Instant::now();
+        let _ = calibrate(
+            &m,
+            &runs,
+            &LmOptions {
+                max_iter: 8,
+                threads: 1,
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        let cal_t = t.elapsed();
+        let s1 = rov_lab::sim::simulation_count();
+        let t = std::time::Instant::now();
+        let c0 = cpu();
+        let d = diagnose(
+            &m,
+            "m",
+            &[tr],
+            &[va],
+            &DiagnoseOptions {
+                threads: 1,
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        println!("{name}: diagnose CPU {:.2} s", cpu() - c0);
+        let s2 = rov_lab::sim::simulation_count();
+        println!(
+            "{name}: one train sim {one:?}; calibrate {cal_t:?} ({} sims); diagnose {:?} ({} sims) terms {}",
+            s1 - s0,
+            t.elapsed(),
+            s2 - s1,
+            d.accepted_terms.len()
+        );
+    }
 }

@@ -36,7 +36,15 @@ fn null_seeds(seeds: std::ops::Range<u64>) {
             d.accepted,
             d.findings[0].explanation
         );
-        assert!(d.findings.iter().all(|f| !f.significant));
+        assert!(
+            d.findings.iter().all(|f| !f.significant),
+            "seed {seed}: {:?}",
+            d.findings
+                .iter()
+                .filter(|f| f.significant)
+                .map(|f| format!("{}: {}", f.effect, f.explanation))
+                .collect::<Vec<_>>()
+        );
         // Nor a term from outside the catalog.
         assert!(
             d.accepted_terms.is_empty(),

@@ -67,6 +67,9 @@ pub const BOOTSTRAP: usize = 30;
 pub const MIN_INCLUSION: f64 = 0.6;
 /// Cosine above which a term's signature is a catalog effect's.
 pub const CATALOG_COSINE: f64 = 0.9;
+/// A runner-up on the same DOF is confirmed too when it explains at least this share of
+/// what the DOF's best pick explains.
+pub const NEAR_TIE: f64 = 0.9;
 /// Most terms confirmed per search round.
 pub const MAX_CONFIRM: usize = 3;
 
@@ -269,6 +272,9 @@ fn windows_of(run: &Run) -> Vec<(usize, usize)> {
     out
 }
 
+/// Samples between the grid points of the weak-form integrals.
+pub const INTEGRAL_STRIDE: usize = 4;
+
 /// A command change larger than this (percentage points in one sample) is a step.
 pub const STEP_PCT: f64 = 10.0;
 
@@ -376,30 +382,45 @@ fn equation_error(
             inv_inertia = inverse_inertia(model, s0);
             have_inertia = true;
         }
-        // Per interval: model acceleration (trapezoid, command of the interval's start).
+        // The windows, and the grid the weak-form integrals run on: every
+        // [`INTEGRAL_STRIDE`]-th sample inside a window (the integrands are smooth between
+        // command steps, which the windows avoid).
+        let wins = steady_windows(run);
+        let n = run.len();
+        let mut on_grid = vec![false; n];
+        for (a, b) in &wins {
+            let mut k = *a;
+            while k < *b {
+                on_grid[k] = true;
+                k += INTEGRAL_STRIDE;
+            }
+        }
+        // Model acceleration at a grid point, averaged over its interval (trapezoid,
+        // command of the interval's start).
         let acc = |m: &LabModel, k: usize| -> Vector6 {
             let s = &sim[k];
-            0.5 * (nu_dot(m, &states[k], run, k, s) + nu_dot(m, &states[k + 1], run, k, s))
+            let k1 = (k + INTEGRAL_STRIDE).min(n.saturating_sub(1));
+            0.5 * (nu_dot(m, &states[k], run, k, s) + nu_dot(m, &states[k1], run, k, s))
         };
-        let n = run.len();
-        let h: Vec<f64> = (0..n.saturating_sub(1))
-            .map(|k| run.t[k + 1] - run.t[k])
-            .collect();
-        let a0: Vec<Vector6> = (0..n.saturating_sub(1)).map(|k| acc(model, k)).collect();
+        let grid_acc = |m: &LabModel| -> Vec<Vector6> {
+            (0..n)
+                .map(|k| {
+                    if on_grid[k] {
+                        acc(m, k)
+                    } else {
+                        Vector6::zeros()
+                    }
+                })
+                .collect()
+        };
+        let a0: Vec<Vector6> = grid_acc(model);
         let a_base: Vec<Option<Vec<Vector6>>> = base_models
             .iter()
-            .map(|bm| {
-                bm.as_ref()
-                    .map(|(m, _)| (0..n.saturating_sub(1)).map(|k| acc(m, k)).collect())
-            })
+            .map(|bm| bm.as_ref().map(|(m, _)| grid_acc(m)))
             .collect();
         let a_cat: Vec<Vec<Vec<Vector6>>> = cat_models
             .iter()
-            .map(|ms| {
-                ms.iter()
-                    .map(|(m, _)| (0..n.saturating_sub(1)).map(|k| acc(m, k)).collect())
-                    .collect()
-            })
+            .map(|ms| ms.iter().map(|(m, _)| grid_acc(m)).collect())
             .collect();
         // Regressors per sample.
         let theta = |kind: &TermKind, k: usize, kc: usize| -> f64 {
@@ -412,8 +433,14 @@ fn equation_error(
                 filt: &s.filt,
             })
         };
-        for (a, b) in steady_windows(run) {
-            let len: f64 = h[a..b].iter().sum();
+        for &(a, b) in &wins {
+            let grid: Vec<usize> = (a..b).step_by(INTEGRAL_STRIDE).collect();
+            // The last grid interval ends at the window's end.
+            let hk = |k: usize| -> f64 {
+                let k1 = (k + INTEGRAL_STRIDE).min(b);
+                run.t[k1] - run.t[k]
+            };
+            let len: f64 = run.t[b] - run.t[a];
             if len <= 0.0 {
                 continue;
             }
@@ -424,8 +451,9 @@ fn equation_error(
                     continue;
                 }
                 let m_eff = 1.0 / inv_inertia[j];
-                let integral =
-                    |acc: &[Vector6]| -> f64 { (a..b).map(|k| acc[k][j] * h[k]).sum::<f64>() };
+                let integral = |acc: &[Vector6]| -> f64 {
+                    grid.iter().map(|&k| acc[k][j] * hk(k)).sum::<f64>()
+                };
                 let model_change = integral(&a0);
                 let y = m_eff * ((vb - va) - model_change) / len;
                 if !y.is_finite() {
@@ -454,8 +482,12 @@ fn equation_error(
                     col.push(v);
                 }
                 for (kind, col) in &mut d.lib {
-                    let v: f64 = (a..b)
-                        .map(|k| 0.5 * (theta(kind, k, k) + theta(kind, k + 1, k)) * h[k])
+                    let v: f64 = grid
+                        .iter()
+                        .map(|&k| {
+                            let k1 = (k + INTEGRAL_STRIDE).min(b);
+                            0.5 * (theta(kind, k, k) + theta(kind, k1, k)) * hk(k)
+                        })
                         .sum::<f64>()
                         / len;
                     col.push(v);
@@ -506,50 +538,63 @@ fn rss(r: &[f64]) -> f64 {
     r.iter().map(|x| x * x).sum()
 }
 
-/// Forward selection of library columns on top of the base columns (rows `rows`):
-/// indices of the picked library columns with their ΔBIC.
-fn forward_select(d: &DofData, rows: &[usize], n_eff_ratio: f64) -> Vec<(usize, f64)> {
-    let sel_rows = |c: &Vec<f64>| -> Vec<f64> { rows.iter().map(|k| c[*k]).collect() };
-    let y: Vec<f64> = sel_rows(&d.y);
-    let base: Vec<Vec<f64>> = d.base.iter().map(&sel_rows).collect();
-    let lib: Vec<Vec<f64>> = d.lib.iter().map(|(_, c)| sel_rows(c)).collect();
-    // Project the base out of y and of every library column once.
-    let base_refs: Vec<&Vec<f64>> = base.iter().collect();
-    let (y0, _) = ls(&y, &base_refs);
-    let lib0: Vec<Vec<f64>> = lib.iter().map(|c| ls(c, &base_refs).0).collect();
-    let n_eff = (y.len() as f64 * n_eff_ratio).max(2.0);
+/// Forward selection of library columns (`lib0`, the base projected out of each) on the
+/// residual `y0` (the base projected out), over the rows `rows`: indices of the picked
+/// columns with their ΔBIC. Each step orthogonalises the candidates against the picks
+/// (Gram–Schmidt), so a step costs one pass over the columns.
+fn forward_select(
+    y0: &[f64],
+    lib0: &[Vec<f64>],
+    rows: &[usize],
+    n_eff_ratio: f64,
+) -> Vec<(usize, f64)> {
+    let take = |c: &[f64]| -> Vec<f64> {
+        rows.iter()
+            .map(|k| c.get(*k).copied().unwrap_or(0.0))
+            .collect()
+    };
+    let mut cur = take(y0);
+    let cols: Vec<Vec<f64>> = lib0.iter().map(|c| take(c)).collect();
+    let n_eff = (rows.len() as f64 * n_eff_ratio).max(2.0);
+    let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>();
+    let mut basis: Vec<Vec<f64>> = Vec::new();
     let mut picked: Vec<(usize, f64)> = Vec::new();
-    let mut cur = y0.clone();
     for _ in 0..MAX_TERMS_PER_DOF {
-        let rss0 = rss(&cur);
+        let rss0 = dot(&cur, &cur);
         if rss0 <= 0.0 {
             break;
         }
-        let mut best: Option<(usize, f64)> = None;
-        for (i, c) in lib0.iter().enumerate() {
+        let mut best: Option<(usize, f64, Vec<f64>)> = None;
+        for (i, c) in cols.iter().enumerate() {
             if picked.iter().any(|(p, _)| *p == i) {
                 continue;
             }
-            let cn: f64 = c.iter().map(|x| x * x).sum();
-            if cn <= 1e-18 * rss0.max(1e-300) {
+            let mut cp = c.clone();
+            for b in &basis {
+                let k = dot(b, &cp);
+                cp.iter_mut().zip(b).for_each(|(x, y)| *x -= k * y);
+            }
+            let cc = dot(&cp, &cp);
+            if cc <= 1e-18 * rss0.max(1e-300) {
                 continue;
             }
-            let mut cols: Vec<&Vec<f64>> = picked.iter().map(|(p, _)| &lib0[*p]).collect();
-            cols.push(c);
-            let (r, _) = ls(&y0, &cols);
-            let v = rss(&r);
-            if best.is_none_or(|(_, bv)| v < bv) {
-                best = Some((i, v));
+            let g = dot(&cp, &cur);
+            let v = rss0 - g * g / cc;
+            if best.as_ref().is_none_or(|(_, bv, _)| v < *bv) {
+                best = Some((i, v, cp));
             }
         }
-        let Some((i, v)) = best else { break };
+        let Some((i, v, cp)) = best else { break };
         let dbic = n_eff * (rss0 / v.max(1e-300)).ln() - n_eff.ln();
         if dbic <= MIN_DBIC {
             break;
         }
         picked.push((i, dbic));
-        let cols: Vec<&Vec<f64>> = picked.iter().map(|(p, _)| &lib0[*p]).collect();
-        cur = ls(&y0, &cols).0;
+        let norm = dot(&cp, &cp).sqrt();
+        let b: Vec<f64> = cp.iter().map(|x| x / norm).collect();
+        let k = dot(&b, &cur);
+        cur.iter_mut().zip(&b).for_each(|(x, y)| *x -= k * y);
+        basis.push(b);
     }
     picked
 }
@@ -574,6 +619,7 @@ pub(super) fn search(
     base_cols: &ColumnCache,
     threads: usize,
 ) -> Result<(Vec<TermPick>, SearchNotes), LabError> {
+    let fixed = crate::verdict::fixed_uncertain(model, base_free);
     let (data, _) = equation_error(model, train, base_free, catalog)?;
     let names = model.command_names();
     let mut notes = SearchNotes::default();
@@ -593,9 +639,9 @@ pub(super) fn search(
             continue;
         }
         let ratio = effective_n(&r0, n) / n as f64;
-        let sel = forward_select(d, &all, ratio);
-        let inclusion = bootstrap_inclusion(d, n, ratio);
         let lib0: Vec<Vec<f64>> = d.lib.iter().map(|(_, c)| ls(c, &base_refs).0).collect();
+        let sel = forward_select(&r0, &lib0, &all, ratio);
+        let inclusion = bootstrap_inclusion(d, &r0, &lib0, ratio);
         // Single-term explained shares (base projected out), best first.
         let mut single: Vec<(usize, f64)> = lib0
             .iter()
@@ -651,8 +697,39 @@ pub(super) fn search(
     // base parameters' sensitivities projected out (a term the base can mimic gains
     // nothing).
     let view = View::Shooting(crate::calibrate::SHOOTING_WINDOW_S);
+    // Sensitivity columns of the fixed base parameters in the screening's weights (the
+    // calibrated ones are cached from the catalog's screening).
+    let fixed_cols: Vec<Option<Vec<f64>>> = if fixed.is_empty() || shortlist.is_empty() {
+        Vec::new()
+    } else {
+        let obj = Objective::scaled(model, train, view, scales.of(view));
+        let r0 = obj.residuals(model)?;
+        let steps: Vec<f64> = fixed.iter().map(|p| p.meta().scale).collect();
+        jacobian_cols(model, &obj, &r0, &fixed, &steps, threads)
+    };
     // (DOF, residual, residual with the base projected out, its N_eff, base columns).
-    type Home = (u8, Vec<f64>, Vec<f64>, f64, Vec<Vec<f64>>);
+    // The null every term must beat is a refit of the base: the calibrated parameters
+    // freely, and the ones the calibration keeps fixed within their documented
+    // uncertainty (an added mass or a drag the data shows to be off by its documented σ
+    // is a base parameter, not new physics): a ridge fit with the fixed parameters'
+    // prior information.
+    let fixed_lambda: Vec<f64> = fixed
+        .iter()
+        .zip(&fixed_cols)
+        .filter(|(_, c)| c.is_some())
+        .map(|(p, _)| match model.prior_of(*p) {
+            Some((_, sd)) if sd > 0.0 => 1.0 / (sd * sd),
+            _ => 0.0,
+        })
+        .collect();
+    let n_free_cols = base_free
+        .iter()
+        .filter(|p| base_cols.contains_key(p))
+        .count();
+    let lambda: Vec<f64> = std::iter::repeat_n(0.0, n_free_cols)
+        .chain(fixed_lambda.iter().copied())
+        .collect();
+    type Home = (u8, Vec<f64>, Vec<f64>, f64, NullFit);
     let mut homes: Vec<Home> = Vec::new();
     for dof in shortlist.iter().map(|(t, _)| t.dof) {
         if homes.iter().any(|(d, ..)| *d == dof) {
@@ -664,20 +741,21 @@ pub(super) fn search(
         let base: Vec<Vec<f64>> = base_free
             .iter()
             .filter_map(|p| base_cols.get(p))
+            .chain(fixed_cols.iter().flatten())
             .filter(|c| c.len() == r0.len())
             .map(|c| match &f {
                 Some(f) if f.len() == c.len() => c.iter().zip(f).map(|(a, b)| a * b).collect(),
                 _ => c.clone(),
             })
             .collect();
-        let refs: Vec<&Vec<f64>> = base.iter().collect();
-        let r0p = ls(&r0, &refs).0;
+        let null = NullFit::new(base, &lambda);
+        let r0p = null.residual(&r0);
         let n_eff = effective_n(&r0p, r0p.len().max(2));
-        homes.push((dof, r0, r0p, n_eff, base));
+        homes.push((dof, r0, r0p, n_eff, null));
     }
     let gains: Vec<Option<TermPick>> = par_map(shortlist.len(), threads, |i| {
         let (t, inclusion) = &shortlist[i];
-        let (_, raw, r0, n_eff, base) = homes.iter().find(|(d, ..)| *d == t.dof)?;
+        let (_, raw, r0, n_eff, null) = homes.iter().find(|(d, ..)| *d == t.dof)?;
         let mut m = model.clone();
         let idx = m.add_term(*t);
         let p = Param::TermCoef(idx as u8, t.rotational());
@@ -691,8 +769,7 @@ pub(super) fn search(
             return None;
         }
         let c: Vec<f64> = r1.iter().zip(raw).map(|(a, b)| (a - b) / step).collect();
-        let refs: Vec<&Vec<f64>> = base.iter().collect();
-        let c = ls(&c, &refs).0;
+        let c = null.residual(&c);
         let cc: f64 = c.iter().map(|x| x * x).sum();
         let cr: f64 = c.iter().zip(r0).map(|(a, b)| a * b).sum();
         let cost0 = rss(r0);
@@ -717,6 +794,12 @@ pub(super) fn search(
     // the best of another); one pick per DOF first, then the runners-up.
     let mut picks: Vec<TermPick> = gains.into_iter().flatten().collect();
     picks.sort_by(|a, b| b.explained.total_cmp(&a.explained));
+    // Only terms that explain a real share, and a fair part of what the best explains,
+    // go on to confirmation (the catalog's screening gates).
+    let best = picks.first().map_or(0.0, |p| p.explained);
+    picks.retain(|p| {
+        p.explained >= MIN_SCREEN_EXPLAINED && p.explained >= RELATIVE_SCREEN_GATE * best
+    });
     let mut firsts: Vec<TermPick> = Vec::new();
     let mut rest: Vec<TermPick> = Vec::new();
     for p in picks {
@@ -730,13 +813,57 @@ pub(super) fn search(
     Ok((firsts, notes))
 }
 
+/// The null fit of the simulation screening: least squares on base sensitivity columns,
+/// with a ridge λ_i on column i (0 for a calibrated parameter, the documented prior's
+/// information 1/σ² for a fixed one).
+struct NullFit {
+    cols: DMatrix<f64>,
+    /// (BᵀB + Λ)⁻¹, `None` when there are no columns or the system is singular.
+    inv: Option<DMatrix<f64>>,
+}
+
+impl NullFit {
+    fn new(cols: Vec<Vec<f64>>, lambda: &[f64]) -> Self {
+        let n = cols.first().map_or(0, |c| c.len());
+        let p = cols.len();
+        let mut b = DMatrix::zeros(n, p);
+        for (j, c) in cols.iter().enumerate() {
+            for (i, v) in c.iter().enumerate() {
+                b[(i, j)] = *v;
+            }
+        }
+        let mut a = b.transpose() * &b;
+        let maxd = (0..p).map(|i| a[(i, i)]).fold(0.0f64, f64::max).max(1e-300);
+        for i in 0..p {
+            a[(i, i)] += 1e-9 * maxd + lambda.get(i).copied().unwrap_or(0.0);
+        }
+        let inv = if p == 0 { None } else { a.try_inverse() };
+        NullFit { cols: b, inv }
+    }
+
+    /// v minus its null fit.
+    fn residual(&self, v: &[f64]) -> Vec<f64> {
+        let Some(inv) = &self.inv else {
+            return v.to_vec();
+        };
+        if self.cols.nrows() != v.len() {
+            return v.to_vec();
+        }
+        let vv = DVector::from_column_slice(v);
+        let coef = inv * (self.cols.transpose() * &vv);
+        let fit = &self.cols * coef;
+        v.iter().zip(fit.iter()).map(|(a, b)| a - b).collect()
+    }
+}
+
 /// Library terms shortlisted per DOF by their single-term share of the equation error
 /// (besides the forward selection's stable picks).
 pub const SHORTLIST_PER_DOF: usize = 8;
 
 /// Block-bootstrap inclusion probability of every library column in the forward
 /// selection (E-SINDy; blocks of 20 windows within runs).
-fn bootstrap_inclusion(d: &DofData, n: usize, ratio: f64) -> Vec<f64> {
+fn bootstrap_inclusion(d: &DofData, y0: &[f64], lib0: &[Vec<f64>], ratio: f64) -> Vec<f64> {
+    let n = y0.len();
     let block_len = 20usize;
     let mut blocks: Vec<Vec<usize>> = Vec::new();
     let mut cur: Vec<usize> = Vec::new();
@@ -760,7 +887,7 @@ fn bootstrap_inclusion(d: &DofData, n: usize, ratio: f64) -> Vec<f64> {
             let b = (splitmix(&mut rng) % blocks.len() as u64) as usize;
             rows.extend_from_slice(&blocks[b]);
         }
-        for (i, _) in forward_select(d, &rows, ratio) {
+        for (i, _) in forward_select(y0, lib0, &rows, ratio) {
             if let Some(c) = counts.get_mut(i) {
                 *c += 1;
             }

@@ -317,6 +317,17 @@ pub fn diagnose(
             rmse_map(&g.current_eval),
         ));
         remaining.retain(|c| c.effect != best_effect);
+        // Consistent with the held-out data within its noise alone (no parameter spread:
+        // the strictest form of the verdict's test): nothing is left to find.
+        let zero = [0.0; crate::data::N_CHANNELS];
+        if verdict::all_consistent(&verdict::test_channels(
+            &g.current,
+            val,
+            &g.current_eval,
+            &zero,
+        )) {
+            break;
+        }
     }
     // The verdict on the catalog's result; the term search when it is not enough.
     let mut spread = [0.0; crate::data::N_CHANNELS];
@@ -365,7 +376,21 @@ pub fn diagnose(
                 search_notes.push(s);
             }
         }
-        let top: Vec<&discovery::TermPick> = picks.iter().take(discovery::MAX_CONFIRM).collect();
+        // The best pick of each DOF, and its runner-up only when it explains nearly as
+        // much (near-equivalent forms of the same residual: the held-out data decides),
+        // up to MAX_CONFIRM.
+        let mut top: Vec<&discovery::TermPick> = Vec::new();
+        for p in &picks {
+            let same: Vec<&&discovery::TermPick> =
+                top.iter().filter(|t| t.term.dof == p.term.dof).collect();
+            let keep = match same.first() {
+                None => true,
+                Some(b) => same.len() < 2 && p.explained >= discovery::NEAR_TIE * b.explained,
+            };
+            if keep && top.len() < discovery::MAX_CONFIRM {
+                top.push(p);
+            }
+        }
         if top.is_empty() {
             break;
         }
