@@ -15,7 +15,10 @@
 //!   samples on both sides by more than [`SPIKE_K`] robust standard deviations (1.4826 ×
 //!   the median absolute departure from the local median, the Hampel identifier) is
 //!   excluded: set missing, so it counts in neither the fits nor the metrics. White
-//!   Gaussian noise exceeds 6 σ on both sides about once in 10⁹ samples.
+//!   Gaussian noise exceeds 6 σ on both sides about once in 10⁹ samples. The departure
+//!   must also exceed [`SPIKE_FLANK_RATIO`] times the signal's own change between the
+//!   samples just outside it, so the sharp tip of a real, nearly noise-free signal (a
+//!   yaw rate reversing under an autopilot) is not taken for a spike.
 //! * **Closed loop.** A command whose sample-to-sample changes follow the measured outputs
 //!   (an autopilot reacting to depth or heading, [`feedback_links`]) marks the run as
 //!   closed-loop. The diagnosis then judges on multiple shooting only: in a free run the
@@ -39,6 +42,9 @@ pub const MIN_PIECE_ROWS: usize = 20;
 pub const SPIKE_K: f64 = 6.0;
 /// Half-width of the spike detector's median window, samples.
 pub const SPIKE_HALF_WINDOW: usize = 4;
+/// A spike departs from its neighbours by more than this many times the signal's own
+/// sample-to-sample change on its flanks.
+pub const SPIKE_FLANK_RATIO: f64 = 3.0;
 /// Longest run of samples taken as one spike.
 pub const MAX_SPIKE_SAMPLES: usize = 2;
 /// A command is closed-loop when the past outputs explain at least this fraction of the
@@ -125,8 +131,19 @@ pub fn exclude_spikes(v: &mut [f64]) -> usize {
             continue;
         }
         let sign = dep[start].signum();
+        // The signal's own sample-to-sample change just outside the candidate: a sharp
+        // but real peak (a noise-free rate reversing) changes as fast on its flanks as at
+        // its tip; a spike leaves and rejoins a signal that barely moves.
+        let flank = |a: usize, b: usize| -> f64 {
+            match (v.get(a), v.get(b)) {
+                (Some(x), Some(y)) if x.is_finite() && y.is_finite() => (x - y).abs(),
+                _ => 0.0,
+            }
+        };
+        let slope = flank(start - 1, start.saturating_sub(2)).max(flank(end + 1, end));
         let departs = (start..end).all(|j| {
-            dep[j].signum() == sign && (v[j] - before) * sign > thr && (v[j] - after) * sign > thr
+            let d = ((v[j] - before) * sign).min((v[j] - after) * sign);
+            dep[j].signum() == sign && d > thr && d > SPIKE_FLANK_RATIO * slope
         });
         if departs {
             for x in &mut v[start..end] {

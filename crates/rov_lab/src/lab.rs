@@ -246,6 +246,7 @@ pub fn compare(
         .iter()
         .filter_map(|c| channel_failure(runs, &shoot, *c))
         .collect();
+    notes.extend(crate::ingest::treatment_sentences(runs));
     let np = not_predicted(&m, runs);
     if !np.is_empty() {
         notes.push(format!(

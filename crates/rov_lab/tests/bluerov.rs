@@ -1,6 +1,6 @@
 //! The real BlueROV2 tank data (shared/real_data/bluerov2_saabmarine_mex): converted to
-//! the measurement format and run through compare and diagnose end to end. Only sanity is
-//! asserted (finite metrics, no panic); what the lab finds is reported in the notes.
+//! the measurement format and run through compare and diagnose end to end: finite
+//! metrics, and on model3 (the Pro 4's three thrusters) the verdict "unexplained".
 
 use std::path::PathBuf;
 
@@ -61,6 +61,18 @@ fn bluerov_runs_through_compare_and_diagnose() {
         assert!(b.rmse.is_finite() && b.rmse_shooting.is_finite(), "{ch}");
     }
     eprintln!("BlueROV2 (model3): {}", d.summary);
+    // A BlueROV2 squeezed onto the Pro 4's three thrusters is not a Pro 4: the lab must
+    // not call the model adequate, and must say where it fails.
+    assert_eq!(
+        d.verdict,
+        rov_lab::verdict::Verdict::Unexplained,
+        "{}",
+        d.summary
+    );
+    assert!(!d.unexplained.is_empty());
+    for u in &d.unexplained {
+        assert!(u.ratio > 1.0 && !u.description.is_empty(), "{u:?}");
+    }
     for (ch, b) in &d.baseline {
         eprintln!(
             "  baseline {ch}: fit {:?} % RMSE {:.4} (free run fit {:?} %, RMSE {:.4}), noise {:.4}",

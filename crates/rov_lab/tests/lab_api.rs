@@ -226,3 +226,55 @@ fn diagnose_json_has_the_documented_shape() {
     assert_eq!(cur["status"], "not_testable");
     let _ = Channel::Depth;
 }
+
+/// Issue 13, part 5: the diagnosis's fit of an effect and `lab add` of the same effect on
+/// the same data are one fit path, so they reach the same optimum (parameters and held-out
+/// error).
+#[test]
+fn diagnose_and_add_reach_the_same_optimum() {
+    let (tr, va) = runs(31, &[Hidden::Lag(0.25)], 240.0, 120.0);
+    let m3 = LabModel::default_base(BaseKind::Model3).unwrap();
+    let d = diagnose(
+        &m3,
+        "model3",
+        std::slice::from_ref(&tr),
+        std::slice::from_ref(&va),
+        &DiagnoseOptions {
+            threads: 2,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    assert_eq!(
+        d.accepted.first(),
+        Some(&EffectId::ThrusterLag),
+        "{}",
+        d.summary
+    );
+    let fd = d
+        .findings
+        .iter()
+        .find(|f| f.effect == "thruster-lag")
+        .unwrap();
+    let r = add(&m3, "model3", &[EffectId::ThrusterLag], &[tr], &[va], 2).unwrap();
+    let fa = r
+        .findings
+        .iter()
+        .find(|f| f.effect == "thruster-lag")
+        .unwrap();
+    assert!(!fd.params.is_empty());
+    for (k, pd) in &fd.params {
+        let pa = &fa.params[k];
+        let tol = 1e-3 * pd.value.abs().max(1e-6) + 0.05 * pd.std.unwrap_or(0.0);
+        assert!(
+            (pd.value - pa.value).abs() <= tol,
+            "{k}: diagnose {} vs add {}",
+            pd.value,
+            pa.value
+        );
+    }
+    for (ch, red) in &fd.validation_rmse_reduction_pct_shooting {
+        let ra = fa.validation_rmse_reduction_pct_shooting[ch];
+        assert!((red - ra).abs() < 0.5, "{ch}: {red} vs {ra}");
+    }
+}

@@ -559,3 +559,113 @@ pub fn planar_trim_case(
     let val_s = paper_schedule(seed + 1000, val_len, &[45.0, 75.0, 30.0, 90.0], 10.0, 8.0);
     (run(&train_s, seed), run(&val_s, seed + 5000))
 }
+
+/// A closed-loop dive of the truth, as the station records them: the station's own depth
+/// and heading autopilot (`rov_control::Controller`, default configuration) holds
+/// set-points that step every 20 s (depth ±1.5 m, heading ±40°) from the *measured* depth,
+/// heading and yaw rate, while the pilot's surge stick steps too; the sample interval
+/// jitters between 40 and 60 ms (a logger on a busy laptop), so the rows are not
+/// uniformly spaced.
+pub fn closed_loop_run(
+    seed: u64,
+    noise_seed: u64,
+    hidden: &[Hidden],
+    duration_s: f64,
+) -> MeasurementSeries {
+    use rov_control::{ControlConfig, Controller, Measurements, ModeCommand, ModelSet, PilotInput};
+    let (model, tether) = truth_model(seed, 0.2, hidden);
+    let mut cfg = SimConfig::with_model(Box::new(model));
+    cfg.sensors.pressure.noise_std_mbar = 1.5;
+    cfg.sensors.attitude.heading_noise_std_deg = 0.7;
+    cfg.sensors.attitude.pitch_noise_std_deg = 0.3;
+    cfg.sensors.attitude.roll_noise_std_deg = 0.3;
+    cfg.initial = InitialConditions::at_rest(5.0, 30.0);
+    let sensors = cfg.sensors;
+    let mut sim = Simulator::new(cfg, noise_seed.wrapping_mul(7919).wrapping_add(13)).unwrap();
+    if let Some(t) = tether {
+        sim.set_external_force(Some(Box::new(t)));
+    }
+    let mut ctl =
+        Controller::new(ControlConfig::default(), ModelSet::load_default().unwrap()).unwrap();
+    let mut rng = StdRng::seed_from_u64(seed ^ 0xC105_ED10);
+    let mut series = MeasurementSeries {
+        present: [true; 8],
+        ..Default::default()
+    };
+    let (mut depth_sp, mut heading_sp) = (5.0f64, 30.0f64);
+    let mut pilot = PilotInput::default();
+    let mut next_change = 0.0;
+    let mut first = true;
+    while sim.time_s() < duration_s {
+        let t = sim.time_s();
+        let r = sim.sensors();
+        let meas = Measurements {
+            depth_m: Some(r.depth_from_pressure_m),
+            heading_deg: Some(r.heading_rad.to_degrees()),
+            yaw_rate_rad_s: Some(r.gyro_body_radps.z),
+        };
+        if first {
+            ctl.tick(t, &meas, &pilot);
+            first = false;
+        }
+        if t >= next_change {
+            depth_sp = (depth_sp + rng.random_range(-1.5..1.5)).clamp(2.0, 8.0);
+            heading_sp = (heading_sp + rng.random_range(-40.0..40.0)).rem_euclid(360.0);
+            pilot.surge = [0.0, 0.15, 0.3, -0.15][rng.random_range(0..4usize)];
+            ctl.command(ModeCommand::SetDepth { depth_m: depth_sp })
+                .unwrap();
+            ctl.command(ModeCommand::SetHeading {
+                heading_deg: heading_sp,
+            })
+            .unwrap();
+            next_change += 20.0;
+        }
+        let out = ctl.tick(t, &meas, &pilot);
+        let c = out.command;
+        let cmd = ThrustPct::new(c.port_pct(), c.starboard_pct(), c.vertical_pct());
+        let mut row = rov_sim::series::row_from_readings(&r, &cmd, &sensors);
+        row.time_s = t;
+        series.rows.push(row);
+        sim.set_command(cmd).unwrap();
+        for _ in 0..rng.random_range(4..=6u32) {
+            sim.step().unwrap();
+        }
+    }
+    series
+}
+
+/// Messes a clean log up the way real logs are: `spikes` isolated outliers per listed
+/// channel (depth +1.5 m, heading +40°), and the rows of `gap` = (start, length) s removed.
+pub fn mess_up(
+    series: &mut MeasurementSeries,
+    seed: u64,
+    depth_spikes: usize,
+    heading_spikes: usize,
+    gap: Option<(f64, f64)>,
+) {
+    let mut rng = StdRng::seed_from_u64(seed ^ 0x5B1C_E5);
+    let n = series.rows.len();
+    let mut used: Vec<usize> = Vec::new();
+    let mut pick = |rng: &mut StdRng| -> usize {
+        loop {
+            let k = rng.random_range(50..n.saturating_sub(50).max(51));
+            if used.iter().all(|u| u.abs_diff(k) > 20) {
+                used.push(k);
+                return k;
+            }
+        }
+    };
+    for _ in 0..depth_spikes {
+        let k = pick(&mut rng);
+        series.rows[k].depth_m += 1.5;
+    }
+    for _ in 0..heading_spikes {
+        let k = pick(&mut rng);
+        series.rows[k].heading_deg += 40.0;
+    }
+    if let Some((t0, len)) = gap {
+        series
+            .rows
+            .retain(|r| r.time_s < t0 || r.time_s >= t0 + len);
+    }
+}
