@@ -643,7 +643,7 @@ pub fn mess_up(
     heading_spikes: usize,
     gap: Option<(f64, f64)>,
 ) {
-    let mut rng = StdRng::seed_from_u64(seed ^ 0x5B1C_E5);
+    let mut rng = StdRng::seed_from_u64(seed ^ 0x005B_1CE5);
     let n = series.rows.len();
     let mut used: Vec<usize> = Vec::new();
     let mut pick = |rng: &mut StdRng| -> usize {
