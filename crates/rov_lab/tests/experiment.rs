@@ -1362,3 +1362,57 @@ fn exp_bluerov_report() {
         }
     }
 }
+
+/// CPU seconds of one diagnosis (catalog and term search, one thread) as the training
+/// run grows, 5-minute validation; `MINUTES=10,30,60` (default), `CASE=lag|free|lift`.
+/// CPU time, not wall time, so a loaded machine does not inflate it.
+#[test]
+#[ignore = "design experiment: prints tables, asserts nothing; run with --ignored --nocapture"]
+fn exp_diag_growth_cpu() {
+    use rov_lab::diagnose::{DiagnoseOptions, diagnose};
+    let cpu = || -> f64 {
+        let s = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
+        let f: Vec<&str> = s
+            .rsplit(')')
+            .next()
+            .unwrap_or("")
+            .split_whitespace()
+            .collect();
+        let t = |i: usize| f.get(i).and_then(|x| x.parse::<f64>().ok()).unwrap_or(0.0);
+        (t(11) + t(12)) / 100.0
+    };
+    let minutes: Vec<f64> = std::env::var("MINUTES")
+        .ok()
+        .map(|s| s.split(',').filter_map(|x| x.parse().ok()).collect())
+        .unwrap_or_else(|| vec![10.0, 30.0, 60.0]);
+    let hidden = match std::env::var("CASE").as_deref() {
+        Ok("free") => vec![],
+        Ok("lift") => vec![Hidden::HeaveLift(-0.3)],
+        _ => vec![Hidden::Lag(0.2)],
+    };
+    for m in minutes {
+        let (tr, va) = case_len(7, &hidden, m * 60.0, 300.0);
+        let tr = Run::from_series(&tr, "train").unwrap();
+        let va = Run::from_series(&va, "val").unwrap();
+        let base = LabModel::default_base(BaseKind::Model3).unwrap();
+        let c0 = cpu();
+        let t = std::time::Instant::now();
+        let d = diagnose(
+            &base,
+            "model3",
+            &[tr],
+            &[va],
+            &DiagnoseOptions {
+                threads: 1,
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        println!(
+            "{m} min train + 5 min val: CPU {:.2} s, wall {:.2?}; {}",
+            cpu() - c0,
+            t.elapsed(),
+            d.summary
+        );
+    }
+}

@@ -30,6 +30,14 @@ fn run_ok(args: &[&str]) -> String {
     String::from_utf8(out.stdout).unwrap()
 }
 
+/// Runs `topside ARGS`, expecting a failure whose message names `needle`.
+fn fails_naming(args: &[&str], needle: &str) {
+    let o = topside().args(args).output().unwrap();
+    assert!(!o.status.success(), "{args:?} succeeded");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains(needle), "{args:?}: {err}");
+}
+
 fn json(args: &[&str]) -> serde_json::Value {
     serde_json::from_str(&run_ok(args)).unwrap()
 }
@@ -446,8 +454,8 @@ fn add_terms_saves_a_model_that_carries_them() {
         "{c}"
     );
     // An unknown term is refused by name.
-    let o = topside()
-        .args([
+    fails_naming(
+        &[
             "lab",
             "add",
             "--model",
@@ -458,9 +466,7 @@ fn add_terms_saves_a_model_that_carries_them() {
             t,
             "--validate",
             v,
-        ])
-        .output()
-        .unwrap();
-    assert!(!o.status.success());
-    assert!(String::from_utf8_lossy(&o.stderr).contains("term:heave:warp"));
+        ],
+        "term:heave:warp",
+    );
 }

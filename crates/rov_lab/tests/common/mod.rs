@@ -434,15 +434,14 @@ pub fn truth_summary(seed: u64, frac: f64) -> String {
     )
 }
 
-/// A measured run of the truth with hidden effects.
-pub fn truth_run(
+/// The simulator of the truth with hidden effects (the sensor-side ones excepted: they
+/// are applied to the recorded series) and the Pro 4's sensor noise, at rest at 5 m.
+fn truth_simulator(
     seed: u64,
     noise_seed: u64,
     hidden: &[Hidden],
-    schedule: &Schedule,
     frac: f64,
-    sample_period: f64,
-) -> MeasurementSeries {
+) -> (Simulator, rov_dynamics::sensors::SensorConfig) {
     let (model, tether) = truth_model(seed, frac, hidden);
     let mut cfg = SimConfig::with_model(Box::new(model));
     cfg.sensors.pressure.noise_std_mbar = 1.5;
@@ -455,6 +454,19 @@ pub fn truth_run(
     if let Some(t) = tether {
         sim.set_external_force(Some(Box::new(t)));
     }
+    (sim, sensors)
+}
+
+/// A measured run of the truth with hidden effects.
+pub fn truth_run(
+    seed: u64,
+    noise_seed: u64,
+    hidden: &[Hidden],
+    schedule: &Schedule,
+    frac: f64,
+    sample_period: f64,
+) -> MeasurementSeries {
+    let (mut sim, sensors) = truth_simulator(seed, noise_seed, hidden, frac);
     let s = run_schedule_on(&mut sim, &sensors, schedule, sample_period).unwrap();
     sensorize(s, hidden)
 }
@@ -565,7 +577,9 @@ pub fn planar_trim_case(
 /// set-points that step every 20 s (depth ±1.5 m, heading ±40°) from the *measured* depth,
 /// heading and yaw rate, while the pilot's surge stick steps too; the sample interval
 /// jitters between 40 and 60 ms (a logger on a busy laptop), so the rows are not
-/// uniformly spaced.
+/// uniformly spaced. The record is what the autopilot saw: the simulator's sensors,
+/// without the sensor-side hidden effects and the integer quantisation of
+/// [`truth_run`]'s records.
 pub fn closed_loop_run(
     seed: u64,
     noise_seed: u64,
@@ -573,18 +587,7 @@ pub fn closed_loop_run(
     duration_s: f64,
 ) -> MeasurementSeries {
     use rov_control::{ControlConfig, Controller, Measurements, ModeCommand, ModelSet, PilotInput};
-    let (model, tether) = truth_model(seed, 0.2, hidden);
-    let mut cfg = SimConfig::with_model(Box::new(model));
-    cfg.sensors.pressure.noise_std_mbar = 1.5;
-    cfg.sensors.attitude.heading_noise_std_deg = 0.7;
-    cfg.sensors.attitude.pitch_noise_std_deg = 0.3;
-    cfg.sensors.attitude.roll_noise_std_deg = 0.3;
-    cfg.initial = InitialConditions::at_rest(5.0, 30.0);
-    let sensors = cfg.sensors;
-    let mut sim = Simulator::new(cfg, noise_seed.wrapping_mul(7919).wrapping_add(13)).unwrap();
-    if let Some(t) = tether {
-        sim.set_external_force(Some(Box::new(t)));
-    }
+    let (mut sim, sensors) = truth_simulator(seed, noise_seed, hidden, 0.2);
     let mut ctl =
         Controller::new(ControlConfig::default(), ModelSet::load_default().unwrap()).unwrap();
     let mut rng = StdRng::seed_from_u64(seed ^ 0xC105_ED10);
