@@ -1185,17 +1185,7 @@ fn exp_term_sizes() {
 #[test]
 #[ignore = "design experiment: prints tables, asserts nothing; run with --ignored --nocapture"]
 fn exp_diag_cost() {
-    let cpu = || -> f64 {
-        let s = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
-        let f: Vec<&str> = s
-            .rsplit(')')
-            .next()
-            .unwrap_or("")
-            .split_whitespace()
-            .collect();
-        let t = |i: usize| f.get(i).and_then(|x| x.parse::<f64>().ok()).unwrap_or(0.0);
-        (t(11) + t(12)) / 100.0
-    };
+    let cpu = cpu_seconds;
     use rov_lab::calibrate::{Objective, View, calibrate};
     use rov_lab::diagnose::{DiagnoseOptions, diagnose};
     use rov_lab::lm::LmOptions;
@@ -1370,17 +1360,7 @@ fn exp_bluerov_report() {
 #[ignore = "design experiment: prints tables, asserts nothing; run with --ignored --nocapture"]
 fn exp_diag_growth_cpu() {
     use rov_lab::diagnose::{DiagnoseOptions, diagnose};
-    let cpu = || -> f64 {
-        let s = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
-        let f: Vec<&str> = s
-            .rsplit(')')
-            .next()
-            .unwrap_or("")
-            .split_whitespace()
-            .collect();
-        let t = |i: usize| f.get(i).and_then(|x| x.parse::<f64>().ok()).unwrap_or(0.0);
-        (t(11) + t(12)) / 100.0
-    };
+    let cpu = cpu_seconds;
     let minutes: Vec<f64> = std::env::var("MINUTES")
         .ok()
         .map(|s| s.split(',').filter_map(|x| x.parse().ok()).collect())
@@ -1415,4 +1395,17 @@ fn exp_diag_growth_cpu() {
             d.summary
         );
     }
+}
+
+/// CPU seconds this process has used (user + system, from /proc/self/stat at 100 Hz).
+fn cpu_seconds() -> f64 {
+    let s = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
+    let f: Vec<&str> = s
+        .rsplit(')')
+        .next()
+        .unwrap_or("")
+        .split_whitespace()
+        .collect();
+    let t = |i: usize| f.get(i).and_then(|x| x.parse::<f64>().ok()).unwrap_or(0.0);
+    (t(11) + t(12)) / 100.0
 }
