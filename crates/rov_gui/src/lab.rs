@@ -537,6 +537,7 @@ pub(crate) fn lab_tab(app: &mut StationApp, ui: &mut Ui) {
                 return;
             };
             ui.label(RichText::new(&diag.summary).strong());
+            verdict_in_words(ui, diag);
             egui::ScrollArea::vertical()
                 .id_salt("findings")
                 .max_height(ui.available_height() - 200.0)
@@ -832,5 +833,61 @@ fn comparison_plots(ui: &mut Ui, c: Option<&Comparison>) {
             }
         });
         ui.add_space(2.0);
+    }
+}
+
+/// The diagnosis's verdict and its unexplained channels, in words (issue 13): "adequate",
+/// "explained by the findings", or which channels are still far from their noise floor and
+/// where their misfit lives.
+fn verdict_in_words(ui: &mut Ui, diag: &Diagnosis) {
+    use rov_lab::verdict::Verdict;
+    let (text, color) = match diag.verdict {
+        Verdict::Adequate => (
+            "Verdict: adequate — every channel is within sensor noise and parameter uncertainty."
+                .to_string(),
+            theme::GREEN,
+        ),
+        Verdict::Explained => (
+            "Verdict: explained — with the accepted findings every channel is within noise."
+                .to_string(),
+            theme::GREEN,
+        ),
+        Verdict::Unexplained => (
+            format!(
+                "Verdict: unexplained — {} still beyond noise and parameter uncertainty.",
+                diag.unexplained
+                    .iter()
+                    .map(|u| u.channel.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+            theme::AMBER,
+        ),
+    };
+    ui.label(RichText::new(text).strong().color(color));
+    // One short line; where each misfit lives and what it correlates with on hover (the
+    // findings below keep their room).
+    if !diag.unexplained.is_empty() {
+        let short: Vec<String> = diag
+            .unexplained
+            .iter()
+            .map(|u| format!("{} {:.1}×", u.channel, u.ratio))
+            .collect();
+        let all: Vec<&str> = diag
+            .unexplained
+            .iter()
+            .map(|u| u.description.as_str())
+            .collect();
+        ui.label(
+            RichText::new(format!(
+                "RMSE / noise floor: {} (hover for where the misfit lives)",
+                short.join(", ")
+            ))
+            .small(),
+        )
+        .on_hover_text(all.join("\n\n"));
+    }
+    if diag.closed_loop {
+        ui.label(RichText::new("The data was recorded in closed loop.").small());
     }
 }

@@ -20,13 +20,42 @@
 //!   does that), clamped to ±100 %;
 //! * vertical = −100·h (the Pro 4's vertical command pushes down).
 //!
-//! The pitch, roll and sway demands have no Pro 4 counterpart and are dropped (runs that
-//! use them show as model failures). A row whose demands are missing keeps the previous
-//! command; rows whose time does not increase are skipped.
+//! The pitch, roll and sway demands have no Pro 4 counterpart and are dropped there (runs
+//! that use them show as model failures of the Pro 4 models). A row whose demands are
+//! missing keeps the previous command; rows whose time does not increase are skipped and
+//! counted.
+//!
+//! # The vehicle's own command channels
+//!
+//! [`bluerov_to_series_inputs`] also keeps all six demands as body-axis command channels
+//! (percent of full demand, FRD/NED sign conventions like the outputs) for a vehicle file
+//! (`config/vehicles/bluerov2_heavy.toml`) to mix: the data's demands follow its z-up
+//! (FLU) frame — surge forward, sway to port, heave up, roll starboard down, pitch nose
+//! down, yaw counter-clockwise (read off the data: each demand drives the matching
+//! velocity with its sign) — so
+//!
+//! * surge = 100·ch5, sway = −100·ch6, heave = −100·ch3 (down positive),
+//! * roll = 100·ch2, pitch = −100·ch1 (nose up positive), yaw = −100·ch4 (clockwise
+//!   positive).
 
+use rov_dynamics::models::vehicle::{CommandChannel, Commands, N_COMMANDS};
 use rov_types::measurement::{MeasurementRow, MeasurementSeries, OptionalChannel};
 
 use crate::LabError;
+
+/// A converted BlueROV2 log: the Pro 4 view, the vehicle's own command channels and what
+/// was dropped.
+#[derive(Debug, Clone)]
+pub struct BlueRovLog {
+    /// The measurement series (Pro 4 command view).
+    pub series: MeasurementSeries,
+    /// Every command channel per row (Pro 4 view and the six body-axis demands), %.
+    pub inputs: Vec<Commands>,
+    /// Which channels are present.
+    pub present: [bool; N_COMMANDS],
+    /// Rows dropped because their time did not increase.
+    pub dropped_rows: usize,
+}
 
 fn err(label: &str, detail: String) -> LabError {
     LabError::Data {
@@ -35,8 +64,14 @@ fn err(label: &str, detail: String) -> LabError {
     }
 }
 
-/// Converts one BlueROV2 CSV (text) to a measurement series.
+/// Converts one BlueROV2 CSV (text) to a measurement series (the Pro 4 view).
 pub fn bluerov_to_series(text: &str, label: &str) -> Result<MeasurementSeries, LabError> {
+    bluerov_to_series_inputs(text, label).map(|b| b.series)
+}
+
+/// Converts one BlueROV2 CSV (text) to a measurement series with the vehicle's own
+/// command channels.
+pub fn bluerov_to_series_inputs(text: &str, label: &str) -> Result<BlueRovLog, LabError> {
     let mut lines = text.lines().filter(|l| !l.trim().is_empty());
     let header: Vec<&str> = lines
         .next()
@@ -67,13 +102,19 @@ pub fn bluerov_to_series(text: &str, label: &str) -> Result<MeasurementSeries, L
         col("ch3_heave")?,
         col("ch4_yaw")?,
         col("ch5_surge")?,
+        col("ch1_pitch")?,
+        col("ch2_roll")?,
+        col("ch6_sway")?,
     ];
     let mut series = MeasurementSeries {
         present: [true; 8],
         ..Default::default()
     };
     let mut prev_cmd = (0.0, 0.0, 0.0);
+    let mut prev_extra = (0.0, 0.0, 0.0);
     let mut last_t = f64::NEG_INFINITY;
+    let mut inputs: Vec<Commands> = Vec::new();
+    let mut dropped_rows = 0usize;
     for line in lines {
         let cells: Vec<&str> = line.split(',').map(str::trim).collect();
         let get = |i: usize| -> f64 {
@@ -84,7 +125,11 @@ pub fn bluerov_to_series(text: &str, label: &str) -> Result<MeasurementSeries, L
         };
         let v: Vec<f64> = idx.iter().map(|i| get(*i)).collect();
         let t = v[0];
-        if !t.is_finite() || t <= last_t {
+        if !t.is_finite() {
+            continue;
+        }
+        if t <= last_t {
+            dropped_rows += 1;
             continue;
         }
         last_t = t;
@@ -92,7 +137,12 @@ pub fn bluerov_to_series(text: &str, label: &str) -> Result<MeasurementSeries, L
         if h.is_finite() && y.is_finite() && s.is_finite() {
             prev_cmd = (h, y, s);
         }
+        let (pi, ro, sw) = (v[16], v[17], v[18]);
+        if pi.is_finite() && ro.is_finite() && sw.is_finite() {
+            prev_extra = (pi, ro, sw);
+        }
         let (h, y, s) = prev_cmd;
+        let (pi, ro, sw) = prev_extra;
         let clamp = |x: f64| (x * 100.0).clamp(-100.0, 100.0);
         let mut row = MeasurementRow {
             time_s: t,
@@ -114,6 +164,19 @@ pub fn bluerov_to_series(text: &str, label: &str) -> Result<MeasurementSeries, L
         row.set(OptionalChannel::RollRateDps, opt(v[10].to_degrees()));
         row.set(OptionalChannel::PitchRateDps, opt(-v[11].to_degrees()));
         row.set(OptionalChannel::YawRateDps, opt(-v[12].to_degrees()));
+        let mut c = crate::data::commands_of_pct(&rov_dynamics::ThrustPct::new(
+            row.port_pct,
+            row.starboard_pct,
+            row.vertical_pct,
+        ));
+        let pct = |x: f64| (x * 100.0).clamp(-100.0, 100.0);
+        c[CommandChannel::Surge.index()] = pct(s);
+        c[CommandChannel::Sway.index()] = pct(-sw);
+        c[CommandChannel::Heave.index()] = pct(-h);
+        c[CommandChannel::Roll.index()] = pct(ro);
+        c[CommandChannel::Pitch.index()] = pct(-pi);
+        c[CommandChannel::Yaw.index()] = pct(-y);
+        inputs.push(c);
         series.rows.push(row);
     }
     if series.rows.len() < 10 {
@@ -122,5 +185,12 @@ pub fn bluerov_to_series(text: &str, label: &str) -> Result<MeasurementSeries, L
             format!("only {} usable rows", series.rows.len()),
         ));
     }
-    Ok(series)
+    let mut present = [true; N_COMMANDS];
+    present[CommandChannel::Lateral.index()] = false;
+    Ok(BlueRovLog {
+        series,
+        inputs,
+        present,
+        dropped_rows,
+    })
 }

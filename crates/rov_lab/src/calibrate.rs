@@ -262,20 +262,51 @@ pub struct Calibration {
     pub scales: ChannelScales,
 }
 
-/// Whether a parameter can be excited by the data (thruster used, channel measured).
-pub fn excited(model: &LabModel, runs: &[Run], p: Param) -> bool {
-    let used = |t: Thr| {
-        runs.iter().any(|r| {
-            r.cmd.iter().any(|c| {
-                let v = match t {
-                    Thr::Port => c.port,
-                    Thr::Starboard => c.starboard,
-                    Thr::Vertical => c.vertical,
-                };
-                v.abs() >= 5.0
+/// Whether some thruster of group `g` runs in the data (|command| ≥ 5 %); with
+/// `reverse`, runs in reverse.
+pub fn group_used(model: &LabModel, runs: &[Run], g: Thr, reverse: bool) -> bool {
+    if !model.has_group(g) {
+        return false;
+    }
+    let n = model.n_thrusters();
+    runs.iter().any(|r| {
+        r.inputs.iter().any(|c| {
+            let t = model.thruster_targets(c);
+            (0..n).any(|i| {
+                model.thruster_group(i) == g
+                    && if reverse {
+                        t[i] <= -5.0
+                    } else {
+                        t[i].abs() >= 5.0
+                    }
             })
         })
-    };
+    })
+}
+
+/// Whether the data drives a group's thrusters with both signs at once on different
+/// thrusters or differentially (a yaw or roll demand): some sample has two thrusters of
+/// the group (or the Pro 4's port and starboard) commanded apart by at least 5 %.
+pub fn differential_used(model: &LabModel, runs: &[Run]) -> bool {
+    let n = model.n_thrusters();
+    runs.iter().any(|r| {
+        r.inputs.iter().any(|c| {
+            let t = model.thruster_targets(c);
+            (0..n).any(|i| {
+                (0..n).any(|j| {
+                    i < j
+                        && model.thruster_group(i) != Thr::Vertical
+                        && model.thruster_group(j) != Thr::Vertical
+                        && (t[i] - t[j]).abs() >= 5.0
+                })
+            })
+        })
+    })
+}
+
+/// Whether a parameter can be excited by the data (thruster used, channel measured).
+pub fn excited(model: &LabModel, runs: &[Run], p: Param) -> bool {
+    let used = |t: Thr| group_used(model, runs, t, false);
     let has = |ch: Channel| runs.iter().any(|r| r.has(ch)) && model.predicts_channel(ch);
     let heading_or_rate = has(Channel::Heading) || has(Channel::YawRate);
     match p {
@@ -296,7 +327,8 @@ pub fn excited(model: &LabModel, runs: &[Run], p: Param) -> bool {
         },
         Param::CgZ => has(Channel::Pitch) || has(Channel::Roll),
         Param::AddedMass(Axis::Sway) => {
-            (has(Channel::Roll) || has(Channel::Heading)) && model.kind() == crate::BaseKind::Model3
+            (has(Channel::Roll) || has(Channel::Heading) || has(Channel::Sway))
+                && model.has_attitude()
         }
         Param::AddedMass(Axis::Roll) => has(Channel::Roll),
         Param::AddedMass(Axis::Pitch) => has(Channel::Pitch),
@@ -304,14 +336,18 @@ pub fn excited(model: &LabModel, runs: &[Run], p: Param) -> bool {
     }
 }
 
-/// Bounds with a weak prior at the current value (keeps unexcited directions put).
+/// Bounds with priors: a base parameter's documented prior (the base file's value and its
+/// documented uncertainty, [`LabModel::prior_of`]); with `prior_at_current`, any other
+/// parameter gets a weak prior at its current value (keeps unexcited directions put).
 pub fn bounds_for(model: &LabModel, params: &[Param], prior_at_current: bool) -> Vec<Bound> {
     params
         .iter()
         .map(|p| {
             let m = p.meta();
             let v = model.get(*p).or_else(|| p.off_value()).unwrap_or(0.0);
-            let prior = prior_at_current.then(|| (v, (v.abs() * 2.0).max(m.scale * 20.0)));
+            let prior = model
+                .prior_of(*p)
+                .or_else(|| prior_at_current.then(|| (v, (v.abs() * 2.0).max(m.scale * 20.0))));
             Bound {
                 lo: m.lo,
                 hi: m.hi,
@@ -359,7 +395,7 @@ pub fn fit_scaled(
                 .unwrap_or_else(|| "(no runs)".into()),
             detail: format!(
                 "no channel is both measured and predicted by {}",
-                model.kind().name()
+                model.base_name()
             ),
         });
     }
@@ -372,7 +408,7 @@ pub fn fit_scaled(
     let lm = minimize_with(&f, &start, &bounds, opts, j0).ok_or_else(|| LabError::Model {
         detail: format!(
             "{} cannot be simulated on the data from its starting parameters",
-            model.kind().name()
+            model.base_name()
         ),
     })?;
     let fitted_model = model.with(free, &lm.x)?;
@@ -420,12 +456,87 @@ pub fn calibrate(
     opts: &LmOptions,
 ) -> Result<Calibration, LabError> {
     let free: Vec<Param> = model
-        .kind()
         .calibration_params()
         .into_iter()
         .filter(|p| excited(model, runs, *p))
         .collect();
-    staged_fit(model, runs, &free, opts)
+    let a = staged_fit(model, runs, &free, opts)?;
+    // The short-horizon start can end in a poor basin (a channel the base could fit left
+    // several noise floors off). Then one more start: the first result with every
+    // parameter that moved more than one documented σ from its prior mean put back there
+    // (a basin reached by trading one parameter against another far from where the
+    // documentation puts them), or, when none did, the same stages begun with a
+    // multiple-shooting fit. The better by the maximum-likelihood criterion for unknown
+    // per-channel error variances (Σ_c N_c ln MSE_c) is kept.
+    if worst_misfit_ratio(&a.model, runs)? <= SECOND_START_RATIO {
+        return Ok(a);
+    }
+    let values = a.model.values(&free);
+    let mut moved = false;
+    let reset: Vec<f64> = free
+        .iter()
+        .zip(&values)
+        .map(|(p, v)| match model.prior_of(*p) {
+            Some((mean, sigma)) if (v - mean).abs() > sigma => {
+                moved = true;
+                mean
+            }
+            _ => *v,
+        })
+        .collect();
+    let bar = det_criterion(&a.model, runs)?;
+    let second = if moved {
+        a.model
+            .with(&free, &reset)
+            .and_then(|start| staged_fit_from(&start, runs, &free, opts, true, Some(bar)))
+    } else {
+        staged_fit_from(model, runs, &free, opts, false, Some(bar))
+    };
+    match second {
+        Ok(b) if det_criterion(&b.model, runs)? < bar => Ok(b),
+        _ => Ok(a),
+    }
+}
+
+/// A calibration whose worst channel misfits its training runs by more than this many
+/// noise floors (multiple shooting) gets a second start (see [`calibrate`]).
+pub const SECOND_START_RATIO: f64 = 2.5;
+
+/// The largest training misfit of a model in noise floors (multiple shooting).
+fn worst_misfit_ratio(model: &LabModel, runs: &[Run]) -> Result<f64, LabError> {
+    let m = misfit_scales(model, runs, View::Shooting(SHOOTING_WINDOW_S))?;
+    let mut worst: f64 = 0.0;
+    for (i, mi) in m.iter().enumerate() {
+        let (mut s, mut n) = (0.0, 0usize);
+        for r in runs {
+            if r.y[i].is_some() {
+                s += r.noise[i].powi(2) * r.len() as f64;
+                n += r.len();
+            }
+        }
+        if n > 0 && *mi > 0.0 {
+            worst = worst.max(mi / (s / n as f64).sqrt().max(1e-12));
+        }
+    }
+    Ok(worst)
+}
+
+/// Σ_c N_c ln MSE_c over the compared channels (multiple shooting): the ML criterion for
+/// unknown per-channel error variances (lower is better).
+fn det_criterion(model: &LabModel, runs: &[Run]) -> Result<f64, LabError> {
+    let m = misfit_scales(model, runs, View::Shooting(SHOOTING_WINDOW_S))?;
+    let mut out = 0.0;
+    for (i, mi) in m.iter().enumerate() {
+        let n: usize = runs
+            .iter()
+            .filter(|r| r.y[i].is_some())
+            .map(|r| r.len())
+            .sum();
+        if n > 0 && *mi > 0.0 {
+            out += n as f64 * (mi * mi).ln();
+        }
+    }
+    Ok(out)
 }
 
 /// Short prediction horizon of the first calibration stage, s.
@@ -449,12 +560,32 @@ pub fn staged_fit(
     free: &[Param],
     opts: &LmOptions,
 ) -> Result<Calibration, LabError> {
+    staged_fit_from(model, runs, free, opts, true, None)
+}
+
+/// [`staged_fit`], its very first fit on the short horizon (`short_first`) or in
+/// multiple shooting. With `abandon_above`, a start whose first multiple-shooting fit is
+/// no better than that criterion (Σ_c N_c ln MSE_c) stops there: a further start that is
+/// not already better after its first stages seldom wins, and the stages after them
+/// are most of the cost.
+fn staged_fit_from(
+    model: &LabModel,
+    runs: &[Run],
+    free: &[Param],
+    opts: &LmOptions,
+    short_first: bool,
+    abandon_above: Option<f64>,
+) -> Result<Calibration, LabError> {
     let dt = runs.first().map_or(0.05, |r| r.median_dt()).max(1e-3);
     let k = (SHORT_HORIZON_S / dt).round().max(2.0) as usize;
     let short = View::KStep(k);
     let shooting = View::Shooting(SHOOTING_WINDOW_S);
-    let short_fit = fit(model, runs, free, short, None, None, opts)?;
-    let noise_fit = fit(
+    let first_view = if short_first { short } else { shooting };
+    let mut short_fit = fit(model, runs, free, first_view, None, None, opts)?;
+    if !short_fit.lm.converged {
+        short_fit = fit(&short_fit.model, runs, free, first_view, None, None, opts)?;
+    }
+    let mut noise_fit = fit(
         &short_fit.model,
         runs,
         free,
@@ -466,6 +597,31 @@ pub fn staged_fit(
             ..*opts
         },
     )?;
+    if let Some(bar) = abandon_above
+        && det_criterion(&noise_fit.model, runs)? >= bar
+    {
+        return Ok(noise_fit);
+    }
+    // The reweighting below must judge a converged fit: a channel a still-moving fit has
+    // not reached yet is not a structural misfit. Continue (at most twice more) until
+    // the noise-weighted fit has converged.
+    for _ in 0..2 {
+        if noise_fit.lm.converged {
+            break;
+        }
+        noise_fit = fit(
+            &noise_fit.model,
+            runs,
+            free,
+            shooting,
+            None,
+            Some(bounds_for(model, free, true)),
+            &LmOptions {
+                max_iter: opts.max_iter,
+                ..*opts
+            },
+        )?;
+    }
     let s1 = structural_scales(runs, &misfit_scales(&noise_fit.model, runs, shooting)?);
     if s1 == NOISE_ONLY {
         return Ok(noise_fit);
@@ -507,8 +663,9 @@ pub fn staged_fit(
     )?;
     let s2 = structural_scales(runs, &misfit_scales(&first.model, runs, shooting)?);
     // Fresh Jacobians here: with channels down-weighted, parameters acting mostly on them
-    // are weakly determined, and rank-one updates let them wander.
-    fit_scaled(
+    // are weakly determined, and rank-one updates let them wander. Continued (at most
+    // twice more) until converged, like the noise-weighted stage.
+    let mut last = fit_scaled(
         &first.model,
         runs,
         free,
@@ -521,7 +678,24 @@ pub fn staged_fit(
         },
         None,
         &s2,
-    )
+    )?;
+    for _ in 0..2 {
+        if last.lm.converged {
+            break;
+        }
+        last = fit_scaled(
+            &last.model,
+            runs,
+            free,
+            shooting,
+            None,
+            Some(bounds_for(model, free, true)),
+            opts,
+            None,
+            &s2,
+        )?;
+    }
+    Ok(last)
 }
 
 /// Per-sample factors taking a weighted residual (layout of [`Objective`]) from the
@@ -576,6 +750,109 @@ pub fn structural_scales(runs: &[Run], misfit: &ChannelScales) -> ChannelScales 
         let sigma = (sum / n as f64).sqrt();
         if misfit[i] > REWEIGHT_FACTOR * sigma {
             *o = (misfit[i] - (REWEIGHT_FACTOR - 1.0) * sigma).max(sigma);
+        }
+    }
+    out
+}
+
+/// The calibration's parameters that need saying: those at a bound of their range (a
+/// physical limit, or a plausibility limit that makes the value suspect) and the
+/// directions of the parameter space the data leaves undetermined (eigenvectors of the
+/// Gauss–Newton information matrix in prior-scaled coordinates, with the effective sample
+/// size, whose eigenvalue is below the prior's own information), in words.
+pub fn calibration_notes(cal: &Calibration) -> Vec<String> {
+    let mut out = Vec::new();
+    let bounds = bounds_for(&cal.model, &cal.params, true);
+    for (i, p) in cal.params.iter().enumerate() {
+        let (Some(v), Some(b)) = (cal.model.get(*p), bounds.get(i)) else {
+            continue;
+        };
+        let tol = 1e-6 * (b.hi - b.lo).abs().max(1e-12);
+        for (bound, upper) in [(b.lo, false), (b.hi, true)] {
+            if (v - bound).abs() <= tol {
+                let (dv, unit) = p.display(v);
+                out.push(if p.bound_is_physical(upper) {
+                    format!(
+                        "{} = {dv:.4} {unit} ended at its physical {} limit: the data wants it beyond what is possible, a sign of a structural misfit it compensates",
+                        p.key(),
+                        if upper { "upper" } else { "lower" }
+                    )
+                } else {
+                    format!(
+                        "{} = {dv:.4} {unit} ended at the {} bound of its plausible range: implausible, it stands in for something the base lacks",
+                        p.key(),
+                        if upper { "upper" } else { "lower" }
+                    )
+                });
+            }
+        }
+    }
+    let Some(j) = cal.lm.jacobian.as_ref() else {
+        return out;
+    };
+    let p = cal.params.len();
+    if j.ncols() != p || p == 0 {
+        return out;
+    }
+    // The data's information in prior-scaled coordinates z = (x − μ)/σ_prior, with the
+    // effective sample size (correlated residuals carry less information than their count):
+    // a direction whose eigenvalue is below 1 is determined less by the data than by the
+    // documented prior.
+    let dof = (cal.lm.n_res as f64 - p as f64).max(1.0);
+    let s2 = (cal.lm.cost / dof).max(1e-300);
+    let ratio = (cal.n_eff / cal.lm.n_res.max(1) as f64).clamp(0.0, 1.0);
+    let sig: Vec<f64> = cal
+        .params
+        .iter()
+        .zip(&bounds)
+        .map(|(q, b)| {
+            cal.model
+                .prior_of(*q)
+                .map(|(_, s)| s)
+                .unwrap_or(b.scale * 20.0)
+        })
+        .collect();
+    let mut a = j.transpose() * j;
+    for r in 0..p {
+        for c in 0..p {
+            a[(r, c)] *= sig[r] * sig[c] * ratio / s2;
+        }
+    }
+    let eig = nalgebra::SymmetricEigen::new(a);
+    let mut weak: Vec<(f64, usize)> = eig
+        .eigenvalues
+        .iter()
+        .enumerate()
+        .filter(|(_, ev)| **ev < 1.0)
+        .map(|(k, ev)| (*ev, k))
+        .collect();
+    weak.sort_by(|x, y| x.0.total_cmp(&y.0));
+    for (ev, k) in weak.into_iter().take(3) {
+        let v = eig.eigenvectors.column(k);
+        let mut comp: Vec<(f64, Param)> = cal
+            .params
+            .iter()
+            .enumerate()
+            .map(|(i, q)| (v[i], *q))
+            .filter(|(c, _)| c.abs() >= 0.3)
+            .collect();
+        comp.sort_by(|x, y| y.0.abs().total_cmp(&x.0.abs()));
+        if comp.len() >= 2 {
+            let names: Vec<String> = comp
+                .iter()
+                .map(|(c, q)| format!("{}{}", if *c < 0.0 { "−" } else { "+" }, q.key()))
+                .collect();
+            out.push(format!(
+                "unidentifiable direction: {} move together with little change of the fit (the data's information there is {:.2} of the documented prior's); only their combination is determined, and their individual values rest on the priors",
+                names.join(" "),
+                ev
+            ));
+        } else if let Some((_, q)) = comp.first() {
+            out.push(format!(
+                "{} is barely determined by this data (information {:.2} of its documented prior's); it stays near its prior",
+                q.key(),
+                ev
+            ));
         }
     }
     out

@@ -17,6 +17,7 @@
 //! `contained: true`. Added masses are kept fixed during calibration because thrust gain,
 //! damping and inertia are determined only up to a common scale by motion data.
 
+use rov_dynamics::models::Channel;
 use serde::Serialize;
 
 /// The 17 effect IDs.
@@ -88,6 +89,147 @@ pub struct EffectInfo {
     pub signature: &'static str,
     /// What the data must contain.
     pub needs: &'static str,
+    /// The channels where its signature lives first (its "home": where it must show to
+    /// count as found, and which keep their noise weights in its fits).
+    #[serde(skip)]
+    pub home: &'static [Channel],
+    /// The error view its parameters are fitted in (every effect is judged on both).
+    #[serde(skip)]
+    pub fit_view: FitView,
+}
+
+/// The error view an effect is fitted in.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum FitView {
+    /// Multiple shooting (re-initialised windows): every dynamic effect.
+    Shooting,
+    /// Free run: slow sensor drift, which re-initialisation would remove.
+    FreeRun,
+}
+
+/// Home channels of the thruster effects: the axes the thrusters drive (surge when
+/// measured: a weak reverse thrust surges the vehicle in differential turns).
+const THRUST_HOME: &[Channel] = &[
+    Channel::Depth,
+    Channel::Heading,
+    Channel::Heave,
+    Channel::YawRate,
+    Channel::Surge,
+];
+const ATTITUDE_HOME: &[Channel] = &[
+    Channel::Pitch,
+    Channel::Roll,
+    Channel::PitchRate,
+    Channel::RollRate,
+];
+const HEADING_HOME: &[Channel] = &[Channel::Heading, Channel::YawRate];
+const DEPTH_HOME: &[Channel] = &[Channel::Depth, Channel::Heave];
+const POSITION_HOME: &[Channel] = &[Channel::North, Channel::East, Channel::Surge, Channel::Sway];
+
+/// Experiments that separate two effects with similar signatures (modellab.md §3.4),
+/// one row per pair.
+const SEPARATING: &[(EffectId, EffectId, &str)] = &[
+    (
+        EffectId::ThrustAsymmetry,
+        EffectId::NetBuoyancy,
+        "zero-thrust hovers between the up and down vertical steps",
+    ),
+    (
+        EffectId::ThrustAsymmetry,
+        EffectId::DragForm,
+        "steps from rest and cut-offs at speed, in both directions",
+    ),
+    (
+        EffectId::NetBuoyancy,
+        EffectId::DepthSensorDrift,
+        "a recording at rest at a known depth (or at the surface) at the start and at the end",
+    ),
+    (
+        EffectId::PitchDepthCoupling,
+        EffectId::NetBuoyancy,
+        "pure surge runs in both directions and pure vertical runs",
+    ),
+    (
+        EffectId::PitchDepthCoupling,
+        EffectId::ThrustAsymmetry,
+        "pure surge runs in both directions and pure vertical runs",
+    ),
+    (
+        EffectId::PitchDepthCoupling,
+        EffectId::DepthSensorDrift,
+        "pure surge runs in both directions and pure vertical runs",
+    ),
+    (
+        EffectId::ThrusterLag,
+        EffectId::AddedMass,
+        "a higher sample rate and fast on/off pulses",
+    ),
+    (
+        EffectId::ThrusterLag,
+        EffectId::ThrusterDeadzone,
+        "a higher sample rate and fast on/off pulses",
+    ),
+    (
+        EffectId::ThrusterMomentArm,
+        EffectId::RestoringOffset,
+        "pitch and roll at rest compared with pitch and roll during up and down vertical steps",
+    ),
+    (
+        EffectId::ThrusterMomentArm,
+        EffectId::AttitudeBias,
+        "pitch and roll at rest compared with pitch and roll during up and down vertical steps",
+    ),
+    (
+        EffectId::PropellerTorque,
+        EffectId::Tether,
+        "vertical steps at several headings, a slack versus a taut tether, and a rate-gyro log",
+    ),
+    (
+        EffectId::PropellerTorque,
+        EffectId::CompassDeviation,
+        "vertical steps at several headings, a slack versus a taut tether, and a rate-gyro log",
+    ),
+    (
+        EffectId::Tether,
+        EffectId::CompassDeviation,
+        "vertical steps at several headings, a slack versus a taut tether, and a rate-gyro log",
+    ),
+    (
+        EffectId::PropellerTorque,
+        EffectId::Coriolis,
+        "spinning in place versus turning while moving",
+    ),
+    (
+        EffectId::Current,
+        EffectId::Tether,
+        "runs at different distances and headings",
+    ),
+    (
+        EffectId::PowerLimit,
+        EffectId::Coriolis,
+        "combined steps at low and high speed, and single steps at the same levels",
+    ),
+    (
+        EffectId::PowerLimit,
+        EffectId::ThrustAsymmetry,
+        "combined steps at low and high speed, and single steps at the same levels",
+    ),
+    (
+        EffectId::RestoringOffset,
+        EffectId::AttitudeBias,
+        "attitude logged with the vehicle levelled in a known state, and surge runs in both directions",
+    ),
+];
+
+/// The experiment that separates two effects (modellab.md §3.4).
+pub fn separating_experiment(a: EffectId, b: EffectId) -> String {
+    SEPARATING
+        .iter()
+        .find(|(x, y, _)| (*x == a && *y == b) || (*x == b && *y == a))
+        .map(|(_, _, s)| *s)
+        .unwrap_or("steps that excite one effect and not the other (see the catalog's needs)")
+        .to_string()
 }
 
 impl EffectId {
@@ -125,6 +267,11 @@ impl EffectId {
     /// Parses an ID string.
     pub fn parse(s: &str) -> Option<Self> {
         Self::ALL.iter().copied().find(|e| e.key() == s.trim())
+    }
+
+    /// The channels where the effect's signature lives first.
+    pub fn home_channels(self) -> &'static [Channel] {
+        self.info().home
     }
 
     /// The catalog entry.
@@ -268,6 +415,19 @@ impl EffectId {
                 "pitch/roll measurements and model3",
             ),
         };
+        use EffectId::*;
+        let home = match self {
+            ThrusterMomentArm | RestoringOffset | AttitudeBias | Coriolis => ATTITUDE_HOME,
+            PropellerTorque | Tether | CompassDeviation => HEADING_HOME,
+            NetBuoyancy | PitchDepthCoupling | DepthSensorDrift => DEPTH_HOME,
+            Current => POSITION_HOME,
+            ThrustAsymmetry | ThrusterLag | ThrusterDeadzone | PowerLimit | AddedMass
+            | DragForm => THRUST_HOME,
+        };
+        let fit_view = match self {
+            DepthSensorDrift => FitView::FreeRun,
+            _ => FitView::Shooting,
+        };
         EffectInfo {
             id: self,
             key,
@@ -276,6 +436,8 @@ impl EffectId {
             term,
             signature,
             needs,
+            home,
+            fit_view,
         }
     }
 }

@@ -6,6 +6,7 @@
 //! to commands 0..k−1 only; [`crate::sim`] follows exactly this.
 
 use rov_dynamics::models::Channel;
+use rov_dynamics::models::vehicle::{CommandChannel, Commands, N_COMMANDS};
 use rov_dynamics::thrusters::ThrustPct;
 use rov_types::measurement::{MeasurementSeries, OptionalChannel};
 use serde::Serialize;
@@ -61,9 +62,10 @@ pub fn ch_unit(ch: Channel) -> &'static str {
     }
 }
 
-/// Whether residuals of a channel are angles to wrap to ±180°.
+/// Whether residuals of a channel are angles to wrap to ±180° (heading, and roll: a
+/// vehicle that rolls over reads its roll modulo 360°).
 pub fn ch_wraps(ch: Channel) -> bool {
-    ch == Channel::Heading
+    matches!(ch, Channel::Heading | Channel::Roll)
 }
 
 /// Longest stretch at the start of a run fitted together for the initial state, s.
@@ -177,8 +179,14 @@ pub struct Run {
     pub name: String,
     /// Sample times, s.
     pub t: Vec<f64>,
-    /// Commands held from each sample.
+    /// The Pro 4 thruster commands held from each sample (port, starboard, vertical).
     pub cmd: Vec<ThrustPct>,
+    /// Every command channel held from each sample (percent; [`CommandChannel`] order):
+    /// the Pro 4's three thrusters, and any other channel the data has (a lateral
+    /// thruster, a vehicle's body-axis demands).
+    pub inputs: Vec<Commands>,
+    /// Which command channels the data holds.
+    pub input_present: [bool; N_COMMANDS],
     /// Measured channels (heading unwrapped, deg); NaN = missing sample.
     pub y: [Option<Vec<f64>>; N_CHANNELS],
     /// Locally smoothed channels (quadratic fit over ±0.3 s), for re-initialisation.
@@ -189,6 +197,58 @@ pub struct Run {
     pub segments: Vec<Segment>,
     /// Initial velocity estimates (ν, SI) from the first second of data.
     pub nu0: [f64; 6],
+    /// What was done to the raw data, for the report.
+    pub treatment: Treatment,
+}
+
+/// Samples excluded as spikes, per channel (index as [`Channel::ALL`]).
+pub type SpikeCounts = [usize; N_CHANNELS];
+
+/// A command that follows the measured outputs (closed-loop data).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct FeedbackLink {
+    /// The command channel.
+    pub command: String,
+    /// The output its changes follow best.
+    pub output: String,
+    /// Fraction of the variance of the command's changes that the past outputs explain.
+    pub explained: f64,
+}
+
+/// What was done to a run's raw data (see [`crate::ingest`]).
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+pub struct Treatment {
+    /// The source (file) label.
+    pub source: String,
+    /// Piece `segment` of `segments` when gaps split the source (1-based).
+    pub segment: usize,
+    /// Pieces the source was split into.
+    pub segments: usize,
+    /// Rows dropped because their time did not increase.
+    pub dropped_time_rows: usize,
+    /// Gaps that split the source: (time of the last sample before, length), s.
+    pub gaps: Vec<(f64, f64)>,
+    /// Spikes excluded per channel.
+    #[serde(skip)]
+    pub spikes: SpikeCounts,
+    /// Median, smallest and largest sample interval, s.
+    pub dt_median_min_max_s: (f64, f64, f64),
+    /// Commands that follow the measured outputs (closed-loop data), if any.
+    pub closed_loop: Vec<FeedbackLink>,
+    /// Other notes in words.
+    pub notes: Vec<String>,
+}
+
+impl Treatment {
+    /// Total spikes excluded.
+    pub fn total_spikes(&self) -> usize {
+        self.spikes.iter().sum()
+    }
+
+    /// Whether the data was recorded in closed loop.
+    pub fn closed_loop(&self) -> bool {
+        !self.closed_loop.is_empty()
+    }
 }
 
 fn unwrap_deg(v: &mut [f64]) {
@@ -315,8 +375,18 @@ pub(crate) fn local_quadratic(
 
 impl Run {
     /// Prepares a measurement series. Fails when the series has fewer than 10 rows or a
-    /// time step above 5 s.
+    /// time step above 5 s (split such data with [`crate::ingest`] first).
     pub fn from_series(series: &MeasurementSeries, name: &str) -> Result<Self, LabError> {
+        Self::from_series_inputs(series, name, None)
+    }
+
+    /// [`Run::from_series`] with the full set of command channels (one vector per row and
+    /// which channels are present) when the data has more than the Pro 4's three.
+    pub fn from_series_inputs(
+        series: &MeasurementSeries,
+        name: &str,
+        extra_inputs: Option<(Vec<Commands>, [bool; N_COMMANDS])>,
+    ) -> Result<Self, LabError> {
         let n = series.rows.len();
         if n < 10 {
             return Err(LabError::Data {
@@ -340,6 +410,21 @@ impl Run {
             .iter()
             .map(|r| ThrustPct::new(r.port_pct, r.starboard_pct, r.vertical_pct))
             .collect();
+        let (inputs, input_present) = match extra_inputs {
+            Some((i, p)) if i.len() == n => (i, p),
+            _ => {
+                let mut p = [false; N_COMMANDS];
+                for c in [
+                    CommandChannel::Port,
+                    CommandChannel::Starboard,
+                    CommandChannel::Vertical,
+                ] {
+                    p[c.index()] = true;
+                }
+                (cmd.iter().map(commands_of_pct).collect(), p)
+            }
+        };
+        let all_segments = segments_of_inputs(&t, &cmd, &inputs, &input_present);
         let mut y: [Option<Vec<f64>>; N_CHANNELS] = Default::default();
         type Pick = fn(&rov_types::MeasurementRow) -> f64;
         let main: [(Channel, Pick); 4] = [
@@ -370,12 +455,22 @@ impl Run {
                 y[ch_index(ch)] = Some(v);
             }
         }
-        if let Some(h) = y[ch_index(Channel::Heading)].as_mut() {
-            unwrap_deg(h);
+        for ch in [Channel::Heading, Channel::Roll] {
+            if let Some(h) = y[ch_index(ch)].as_mut() {
+                unwrap_deg(h);
+            }
+        }
+        // Isolated spikes (a sample far from both neighbours and from the local median)
+        // are excluded before anything is estimated from the channel.
+        let mut spikes = [0usize; N_CHANNELS];
+        for (i, v) in y.iter_mut().enumerate() {
+            if let Some(v) = v.as_mut() {
+                spikes[i] = crate::ingest::exclude_spikes(v);
+            }
         }
         let mut noise = [0.0; N_CHANNELS];
         let mut smooth: [Option<Vec<f64>>; N_CHANNELS] = Default::default();
-        let first = segments_of(&t, &cmd).first().copied();
+        let first = all_segments.first().copied();
         let first_len_s = first.map_or(0.0, |s| s.t_end_s - s.t_start_s);
         // The free run starts from the smoothed first sample. A one-sided 0.3 s quadratic
         // there has ~5× the variance of a centred one, and its error (an initial heave
@@ -475,17 +570,41 @@ impl Run {
             opt_or(Channel::PitchRate, slope(Channel::Pitch)).to_radians(),
             opt_or(Channel::YawRate, slope(Channel::Heading)).to_radians(),
         ];
-        let segments = segments_of(&t, &cmd);
+        let segments = all_segments;
+        let mut dts: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
+        dts.sort_by(f64::total_cmp);
+        let treatment = Treatment {
+            source: name.into(),
+            segment: 1,
+            segments: 1,
+            spikes,
+            dt_median_min_max_s: (
+                dts.get(dts.len() / 2).copied().unwrap_or(0.0),
+                dts.first().copied().unwrap_or(0.0),
+                dts.last().copied().unwrap_or(0.0),
+            ),
+            ..Default::default()
+        };
         Ok(Self {
             name: name.into(),
             t,
             cmd,
+            inputs,
+            input_present,
             y,
             smooth,
             noise,
             segments,
             nu0,
-        })
+            treatment,
+        }
+        .with_feedback_check())
+    }
+
+    /// Runs the closed-loop check (see [`crate::ingest::feedback_links`]) and records it.
+    fn with_feedback_check(mut self) -> Self {
+        self.treatment.closed_loop = crate::ingest::feedback_links(&self);
+        self
     }
 
     /// Parses a measurement CSV text.
@@ -572,26 +691,67 @@ impl Run {
     }
 }
 
-/// Constant-command segments (a change of more than 0.5 % starts a new one).
+/// A Pro 4 command as a command vector (the port, starboard and vertical channels).
+pub fn commands_of_pct(c: &ThrustPct) -> Commands {
+    let mut out = [0.0; N_COMMANDS];
+    out[CommandChannel::Port.index()] = c.port;
+    out[CommandChannel::Starboard.index()] = c.starboard;
+    out[CommandChannel::Vertical.index()] = c.vertical;
+    out
+}
+
+/// Constant-command segments of the Pro 4's three thrusters (a change of more than
+/// 0.5 % starts a new one).
 pub fn segments_of(t: &[f64], cmd: &[ThrustPct]) -> Vec<Segment> {
+    let inputs: Vec<Commands> = cmd.iter().map(commands_of_pct).collect();
+    let mut present = [false; N_COMMANDS];
+    for c in [
+        CommandChannel::Port,
+        CommandChannel::Starboard,
+        CommandChannel::Vertical,
+    ] {
+        present[c.index()] = true;
+    }
+    segments_of_inputs(t, cmd, &inputs, &present)
+}
+
+/// Constant-command segments over every present command channel (a change of more than
+/// 0.5 % in any channel starts a new one); kinds and levels from the Pro 4 view.
+pub fn segments_of_inputs(
+    t: &[f64],
+    cmd: &[ThrustPct],
+    inputs: &[Commands],
+    present: &[bool; N_COMMANDS],
+) -> Vec<Segment> {
     let mut out = Vec::new();
     let mut start = 0;
-    let changed = |a: &ThrustPct, b: &ThrustPct| {
-        (a.port - b.port).abs() > 0.5
-            || (a.starboard - b.starboard).abs() > 0.5
-            || (a.vertical - b.vertical).abs() > 0.5
+    let changed = |a: &Commands, b: &Commands| {
+        a.iter()
+            .zip(b)
+            .zip(present)
+            .any(|((x, y), p)| *p && (x - y).abs() > 0.5)
     };
-    for k in 1..=cmd.len() {
-        if k == cmd.len() || changed(&cmd[k], &cmd[start]) {
-            let c = cmd[start];
-            let level = c.port.abs().max(c.starboard.abs()).max(c.vertical.abs());
+    for k in 1..=inputs.len() {
+        if k == inputs.len() || changed(&inputs[k], &inputs[start]) {
+            let c = cmd.get(start).copied().unwrap_or(ThrustPct::ZERO);
+            let level = inputs[start]
+                .iter()
+                .zip(present)
+                .filter(|(_, p)| **p)
+                .map(|(x, _)| x.abs())
+                .fold(0.0f64, f64::max);
+            let any_on = level >= 0.5;
+            let mut kind = SegmentKind::of(&c);
+            if kind == SegmentKind::Rest && any_on {
+                kind = SegmentKind::Combined;
+            }
             out.push(Segment {
                 start,
                 end: k,
                 t_start_s: t[start],
                 t_end_s: t[k - 1],
                 cmd: c,
-                kind: SegmentKind::of(&c),
+                kind,
                 level_pct: (level / 5.0).round() * 5.0,
             });
             start = k;

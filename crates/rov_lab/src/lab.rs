@@ -8,15 +8,14 @@ use serde::Serialize;
 
 use crate::LabError;
 use crate::analysis::{ChannelFailure, channel_failure, segment_metrics};
-use crate::calibrate::{FittedParam, SHOOTING_WINDOW_S, View, fit_scaled, staged_fit};
+use crate::calibrate::{FittedParam, SHOOTING_WINDOW_S, View};
 use crate::catalog::EffectId;
 use crate::data::{Run, ch_name};
 use crate::diagnose::{Diagnosis, Finding};
-use crate::evaluate::{Evaluation, evaluate};
+use crate::evaluate::Evaluation;
 use crate::lm::LmOptions;
 use crate::metrics::{ChannelMetrics, channel_metrics, pooled_metrics, windows};
 use crate::model::LabModel;
-use crate::params::{Param, effect_params};
 use crate::sim::{Prediction, compared_channels, simulate_run};
 
 /// k of the k-step view, s.
@@ -114,83 +113,28 @@ fn not_predicted(model: &LabModel, runs: &[Run]) -> Vec<String> {
         .collect()
 }
 
-/// Adds effects to a model and fits them jointly with the base on `runs` (two stages,
-/// every calibrated base parameter free). Contained effects refit their base
-/// parameters instead of adding a term.
+/// Adds effects to a model and fits them jointly with the base on `runs`, in-sample (the
+/// fit of [`crate::diagnose::add_to_model`] with the same runs held out). Contained
+/// effects refit their base parameters instead of adding a term.
 pub fn fit_with_effects(
     model: &LabModel,
     runs: &[Run],
     effects: &[EffectId],
     opts: &LmOptions,
 ) -> Result<(LabModel, Vec<FittedParam>), LabError> {
-    let mut m = model.clone();
-    let mut free: Vec<Param> = model
-        .kind()
-        .calibration_params()
-        .into_iter()
-        .filter(|p| crate::calibrate::excited(model, runs, *p))
-        .collect();
-    for e in effects {
-        if let Some(reason) = model.kind().not_applicable(*e) {
-            return Err(LabError::NotApplicable {
-                effect: e.key().into(),
-                model: model.kind().name().into(),
-                reason: reason.into(),
-            });
-        }
-        m.add_effect(*e);
-        for p in effect_params(*e) {
-            if m.applicable(p) && !free.contains(&p) {
-                free.push(p);
-            }
-        }
-    }
-    // Start each effect parameter at the better of "off" and its probe value.
-    let obj = crate::calibrate::Objective::new(&m, runs, View::Shooting(SHOOTING_WINDOW_S));
-    let cost = |x: &LabModel| -> f64 {
-        obj.residuals(x)
-            .map(|r| r.iter().map(|v| v * v).sum())
-            .unwrap_or(f64::INFINITY)
+    let d = crate::diagnose::DiagnoseOptions {
+        threads: opts.threads,
+        calibration_iterations: opts.max_iter,
+        ..Default::default()
     };
-    for e in effects {
-        for p in effect_params(*e) {
-            if !m.applicable(p) || p.off_value().is_none() {
-                continue;
-            }
-            let cur = m.get(p).unwrap_or(0.0);
-            let mut best = (cost(&m), cur);
-            for cand in [
-                p.probe_value(),
-                2.0 * p.probe_value() - p.off_value().unwrap_or(0.0),
-            ] {
-                if let Ok(t) = m.with(&[p], &[cand]) {
-                    let c = cost(&t);
-                    if c < best.0 {
-                        best = (c, cand);
-                    }
-                }
-            }
-            m = m.with(&[p], &[best.1])?;
-        }
-    }
-    let cal = staged_fit(&m, runs, &free, opts)?;
-    // Same channel weights as the calibration's last stage, so the costs compare.
-    let polish = fit_scaled(
-        &cal.model,
-        runs,
-        &free,
-        View::Shooting(SHOOTING_WINDOW_S),
-        None,
-        None,
-        &LmOptions {
-            max_iter: 3,
-            ..*opts
-        },
-        None,
-        &cal.scales,
-    )?;
-    let best = if polish.cost <= cal.cost { polish } else { cal };
-    Ok((best.model, best.fitted))
+    let added = crate::diagnose::add_to_model(model, runs, runs, effects, &[], &d)?;
+    Ok(match added.steps.last() {
+        Some(s) => (s.model.clone(), s.fitted.clone()),
+        None => (
+            added.calibration.model.clone(),
+            added.calibration.fitted.clone(),
+        ),
+    })
 }
 
 /// Compares a model (with optional effects fitted on the same data) with measured runs in
@@ -302,6 +246,7 @@ pub fn compare(
         .iter()
         .filter_map(|c| channel_failure(runs, &shoot, *c))
         .collect();
+    notes.extend(crate::ingest::treatment_sentences(runs));
     let np = not_predicted(&m, runs);
     if !np.is_empty() {
         notes.push(format!(
@@ -399,6 +344,12 @@ pub struct AddReport {
     pub params: Vec<FittedParam>,
     /// Measured channels the model does not predict.
     pub not_predicted: Vec<String>,
+    /// Each addition's evidence on the held-out runs (as the diagnosis reports it).
+    pub findings: Vec<Finding>,
+    /// Additions that were not possible, in words.
+    pub notes: Vec<String>,
+    /// What was done to the data, in words.
+    pub data: Vec<String>,
     /// The final model (not serialised).
     #[serde(skip)]
     pub model_fitted: Option<LabModel>,
@@ -423,9 +374,9 @@ fn fall_step(label: String, e: &Evaluation) -> ErrorFallStep {
     }
 }
 
-/// Calibrates the base on `train`, adds the effects one after the other (each time
-/// refitting the base and all effects so far), and reports held-out metrics before and
-/// after and the error fall.
+/// Calibrates the base on `train`, adds the effects one after the other exactly as the
+/// diagnosis fits them (each time refitting the base jointly), and reports held-out
+/// metrics before and after, the error fall and each addition's evidence.
 pub fn add(
     model: &LabModel,
     model_label: &str,
@@ -434,41 +385,30 @@ pub fn add(
     val: &[Run],
     threads: usize,
 ) -> Result<AddReport, LabError> {
-    let opts = LmOptions {
-        max_iter: 8,
+    add_with_terms(model, model_label, effects, &[], train, val, threads)
+}
+
+/// [`add`], then the discovered terms (ids `term:DOF:SLUG`, as the diagnosis reports them).
+pub fn add_with_terms(
+    model: &LabModel,
+    model_label: &str,
+    effects: &[EffectId],
+    terms: &[String],
+    train: &[Run],
+    val: &[Run],
+    threads: usize,
+) -> Result<AddReport, LabError> {
+    let opts = crate::diagnose::DiagnoseOptions {
         threads,
         ..Default::default()
     };
-    for e in effects {
-        if let Some(reason) = model.kind().not_applicable(*e) {
-            return Err(LabError::NotApplicable {
-                effect: e.key().into(),
-                model: model.kind().name().into(),
-                reason: reason.into(),
-            });
-        }
-    }
-    let cal = crate::calibrate::calibrate(model, train, &opts)?;
-    let base_eval = evaluate(&cal.model, val)?;
+    let added = crate::diagnose::add_to_model(model, train, val, effects, terms, &opts)?;
+    let base_eval = added.base_eval.clone();
     let mut evaluations = vec![base_eval.clone()];
     let mut fall = vec![fall_step("calibrated base".into(), &base_eval)];
-    let mut current = cal.model.clone();
-    let mut params = cal.fitted.clone();
-    let mut so_far: Vec<EffectId> = Vec::new();
-    for e in effects {
-        so_far.push(*e);
-        let (m, p) = fit_with_effects(&current, train, std::slice::from_ref(e), &opts)?;
-        // Refit every effect so far jointly once more (cheap polish).
-        let (m, p) = if so_far.len() > 1 {
-            fit_with_effects(&m, train, &so_far, &opts)?
-        } else {
-            (m, p)
-        };
-        current = m;
-        params = p;
-        let ev = evaluate(&current, val)?;
-        fall.push(fall_step(format!("+ {}", e.key()), &ev));
-        evaluations.push(ev);
+    for s in &added.steps {
+        fall.push(fall_step(s.label.clone(), &s.eval));
+        evaluations.push(s.eval.clone());
     }
     let last = evaluations.last().cloned().unwrap_or_default();
     let red = |f: fn(&crate::evaluate::ChannelEval) -> f64| -> BTreeMap<String, f64> {
@@ -486,12 +426,24 @@ pub fn add(
             })
             .collect()
     };
+    let final_model = added
+        .steps
+        .last()
+        .map(|s| s.model.clone())
+        .unwrap_or_else(|| added.calibration.model.clone());
+    let params = added
+        .steps
+        .last()
+        .map(|s| s.fitted.clone())
+        .unwrap_or_else(|| added.calibration.fitted.clone());
+    let mut names: Vec<String> = effects.iter().map(|e| e.key().to_string()).collect();
+    names.extend(terms.iter().cloned());
     Ok(AddReport {
         model: model_label.into(),
-        effects: effects.iter().map(|e| e.key().to_string()).collect(),
+        effects: names,
         refitted_contained: effects
             .iter()
-            .filter(|e| model.kind().contains(**e))
+            .filter(|e| model.contains(**e))
             .map(|e| e.key().to_string())
             .collect(),
         before: summarize(&base_eval),
@@ -499,10 +451,21 @@ pub fn add(
         rmse_reduction_pct: red(|c| c.shooting.rmse),
         rmse_reduction_pct_free_run: red(|c| c.free_run.rmse),
         error_fall: fall,
-        calibration: cal.fitted,
+        calibration: added.calibration.fitted.clone(),
         params,
         not_predicted: not_predicted(model, val),
-        model_fitted: Some(current),
+        findings: added.steps.iter().map(|s| s.finding.clone()).collect(),
+        notes: added.notes.clone(),
+        data: {
+            let mut d = crate::ingest::treatment_sentences(train);
+            for s in crate::ingest::treatment_sentences(val) {
+                if !d.contains(&s) {
+                    d.push(s);
+                }
+            }
+            d
+        },
+        model_fitted: Some(final_model),
         evaluations,
     })
 }
@@ -512,6 +475,21 @@ pub fn add(
 pub struct DiagnoseJson {
     /// Model name as given.
     pub model: String,
+    /// "adequate", "explained" or "unexplained" (see [`crate::verdict`]).
+    pub verdict: crate::verdict::Verdict,
+    /// Channels still inconsistent with noise and parameter uncertainty, with where their
+    /// misfit lives (empty unless the verdict is "unexplained").
+    pub unexplained: Vec<crate::verdict::Unexplained>,
+    /// The consistency test of every channel (final model, held-out data).
+    pub consistency: Vec<crate::verdict::ChannelTest>,
+    /// What was done to the data (spikes, gaps, time stamps, closed loop), in words.
+    pub data: Vec<String>,
+    /// Whether the data was recorded in closed loop.
+    pub closed_loop: bool,
+    /// Calibration parameters at a bound or along an unidentifiable direction.
+    pub calibration_notes: Vec<String>,
+    /// What the term search saw besides its findings.
+    pub search_notes: Vec<String>,
     /// Calibrated base on the held-out data.
     pub baseline: BaselineJson,
     /// Findings, best first.
@@ -537,8 +515,18 @@ pub struct BaselineJson {
 
 /// Builds the diagnose JSON document.
 pub fn diagnose_json(d: &Diagnosis) -> DiagnoseJson {
+    let names = d.final_model.command_names();
+    let mut accepted: Vec<String> = d.accepted.iter().map(|e| e.key().to_string()).collect();
+    accepted.extend(d.accepted_terms.iter().map(|t| t.id(&names)));
     DiagnoseJson {
         model: d.model.clone(),
+        verdict: d.verdict,
+        unexplained: d.unexplained.clone(),
+        consistency: d.consistency.clone(),
+        data: d.data_notes.clone(),
+        closed_loop: d.closed_loop,
+        calibration_notes: d.calibration_notes.clone(),
+        search_notes: d.search_notes.clone(),
         baseline: BaselineJson {
             channels: d
                 .baseline
@@ -559,7 +547,7 @@ pub fn diagnose_json(d: &Diagnosis) -> DiagnoseJson {
         },
         findings: d.findings.clone(),
         summary: d.summary.clone(),
-        accepted: d.accepted.iter().map(|e| e.key().to_string()).collect(),
+        accepted,
         not_predicted: d.not_predicted.clone(),
         calibration: d.calibration.clone(),
         error_fall: d

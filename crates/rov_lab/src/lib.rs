@@ -21,6 +21,7 @@ pub mod data;
 pub mod diagnose;
 mod error;
 pub mod evaluate;
+pub mod ingest;
 pub mod lab;
 pub mod lm;
 pub mod metrics;
@@ -29,6 +30,8 @@ pub mod params;
 pub mod persist;
 pub mod plots;
 pub mod sim;
+pub mod terms;
+pub mod verdict;
 
 pub use catalog::{EffectId, parse_effect_list};
 pub use data::Run;

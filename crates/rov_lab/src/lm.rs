@@ -64,6 +64,9 @@ pub struct LmResult {
     pub iterations: usize,
     /// Residual evaluations done.
     pub evaluations: usize,
+    /// Whether the search stopped because it converged (a step below the relative
+    /// tolerance, or no descent left), not because it ran out of iterations.
+    pub converged: bool,
 }
 
 impl LmResult {
@@ -231,10 +234,12 @@ where
             residuals: r,
             iterations,
             evaluations,
+            converged: true,
         });
     }
     let sc: Vec<f64> = bounds.iter().map(|b| b.scale).collect();
     let mut refreshes = 0;
+    let mut converged = false;
     while iterations < opts.max_iter {
         iterations += 1;
         if jac.is_none() {
@@ -330,9 +335,11 @@ where
                 lambda = 1e-3;
                 continue;
             }
+            converged = true;
             break;
         }
         if stop {
+            converged = true;
             break;
         }
     }
@@ -345,6 +352,7 @@ where
         residuals: r,
         iterations,
         evaluations,
+        converged,
     })
 }
 

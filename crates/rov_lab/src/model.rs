@@ -1,30 +1,39 @@
-//! The lab model: a base model (model1, model2 or model3) with calibrated thrust scales
-//! and damping, plus any catalog effects, behind [`VehicleModel`] so that `sim`, `hold`
-//! and the lab load it like any model.
+//! The lab model: a base (model1, model2, model3 or a vehicle definition file) with
+//! calibrated thrust scales and damping, plus any catalog effects and discovered terms,
+//! behind [`VehicleModel`] so that `sim`, `hold` and the lab load it like any model.
 //!
 //! # Layers
 //!
-//! * Thrust (stage a): per thruster F = k_l A u + k_q B u|u| with the base's own
-//!   coefficients (A, B) and the calibrated scales (k_l, k_q); the dead zone shifts u,
-//!   the asymmetry scales reverse thrust, the power limit scales all three.
-//! * Generalized force (stage b): the base's allocation, plus the moment arms and the
-//!   propeller reaction torques.
+//! * Commands (stage 0): the run's command signals ([`Commands`], percent). The Pro 4
+//!   bases read the port, starboard and vertical channels as their three thrusters; a
+//!   vehicle file mixes its command channels into its thrusters
+//!   ([`VehicleDef::thruster_commands`]).
+//! * Thrust (stage a): per thruster F = k_l A(u) + k_q B(u) with the base's own curve (A,
+//!   B: the linear and quadratic parts, or a table) and the calibrated scales (k_l, k_q) of
+//!   the thruster's group; the dead zone shifts u, the asymmetry scales reverse thrust, the
+//!   power limit scales all of them.
+//! * Generalized force (stage b): the base's allocation (a vehicle's thruster positions
+//!   and directions), plus the Pro 4's moment arms and propeller reaction torques.
 //! * Dynamics (stage c): the base's dynamics with extra body forces (net buoyancy for
-//!   model1, tether, asymmetric drag) and the effect's current; for model1/model2 the trim
-//!   angle of `pitch-depth-coupling` enters the depth kinematics.
+//!   model1, tether, asymmetric drag, discovered terms) and the effect's current; for
+//!   models without pitch the trim angle of `pitch-depth-coupling` enters the depth
+//!   kinematics.
 //! * Outputs (stage d): depth drift, compass deviation and interference, attitude biases.
 //!
-//! Thruster lag: in [`VehicleModel`] form it is three extra states with ȧ = (u − a)/τ
-//! (τ → 0 switches it off). The lab's own simulator ([`crate::sim`]) updates the lag
-//! exactly on the held command instead, which stays valid for τ → 0.
+//! Thruster lag: in [`VehicleModel`] form it is one extra state per thruster with
+//! ȧ = (u − a)/τ (τ → 0 switches it off). The lab's own simulator ([`crate::sim`]) updates
+//! the lag exactly on the held command instead, which stays valid for τ → 0.
 
 use std::any::Any;
 
 use rov_dynamics::Vector6;
-use rov_dynamics::kinematics::Attitude;
+use rov_dynamics::kinematics::{Attitude, QuatState, unpack_quat_state};
+use rov_dynamics::models::vehicle::{
+    CommandChannel, Commands, MAX_THRUSTERS, N_COMMANDS, Structure, VehicleDef, VehicleDynamics,
+};
 use rov_dynamics::models::{
-    Channel, InitialConditions, Model1, Model2, Model3, ModelOutput, ModelState, ThrusterForces,
-    VehicleModel, load_model,
+    Channel, Environment, InitialConditions, Model1, Model2, Model3, ModelOutput, ModelState,
+    ThrusterForces, VehicleModel, load_model,
 };
 use rov_dynamics::process::CurrentSample;
 use rov_dynamics::thrusters::{ThrustMap, ThrustPct};
@@ -32,9 +41,13 @@ use rov_dynamics::thrusters::{ThrustMap, ThrustPct};
 use crate::LabError;
 use crate::catalog::EffectId;
 use crate::params::{Axis, Param, Thr};
+use crate::terms::{FILTER_TAUS_S, Term, TermInputs};
 
 /// Tether attachment point from the CO (body axes), m: behind the hull on its axis.
 pub const TETHER_ATTACH_X_M: f64 = -0.2;
+
+/// Most filtered-command signals a model's terms may use.
+pub const MAX_FILTERS: usize = 4;
 
 /// Which base model.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize)]
@@ -46,10 +59,12 @@ pub enum BaseKind {
     Model2,
     /// Mai et al. 2017, Fossen 6-DOF.
     Model3,
+    /// A vehicle definition file (`config/vehicles/`).
+    Vehicle,
 }
 
 impl BaseKind {
-    /// All three.
+    /// The three Pro 4 models.
     pub const ALL: [BaseKind; 3] = [BaseKind::Model1, BaseKind::Model2, BaseKind::Model3];
 
     /// "model1" …
@@ -58,17 +73,18 @@ impl BaseKind {
             BaseKind::Model1 => "model1",
             BaseKind::Model2 => "model2",
             BaseKind::Model3 => "model3",
+            BaseKind::Vehicle => "vehicle",
         }
     }
 
-    /// Parses a base name.
+    /// Parses a Pro 4 base name.
     pub fn parse(s: &str) -> Option<Self> {
         Self::ALL.iter().copied().find(|k| k.name() == s)
     }
 
-    /// Whether the base has pitch and roll.
+    /// Whether the base has pitch and roll (a vehicle file: see [`LabModel::has_attitude`]).
     pub fn has_attitude(self) -> bool {
-        self == BaseKind::Model3
+        matches!(self, BaseKind::Model3 | BaseKind::Vehicle)
     }
 
     /// Effects the base already contains (see [`crate::catalog`]).
@@ -79,7 +95,7 @@ impl BaseKind {
                 e,
                 EffectId::AddedMass | EffectId::NetBuoyancy | EffectId::Coriolis
             ),
-            BaseKind::Model3 => matches!(
+            BaseKind::Model3 | BaseKind::Vehicle => matches!(
                 e,
                 EffectId::AddedMass
                     | EffectId::NetBuoyancy
@@ -93,6 +109,14 @@ impl BaseKind {
     /// Why an effect cannot be represented in this base at all (it acts only through
     /// states the base does not have), if so.
     pub fn not_applicable(self, e: EffectId) -> Option<&'static str> {
+        if self == BaseKind::Vehicle {
+            return match e {
+                EffectId::PropellerTorque => Some(
+                    "its parameters are the Pro 4's vertical and horizontal thruster torques; a vehicle file has its own thruster layout",
+                ),
+                _ => None,
+            };
+        }
         if self.has_attitude() {
             return None;
         }
@@ -113,10 +137,11 @@ impl BaseKind {
         }
     }
 
-    /// The base parameters that calibration frees (four-channel data).
+    /// The base parameters that calibration frees (four-channel data) for the Pro 4
+    /// bases (a vehicle file: [`LabModel::calibration_params`]).
     pub fn calibration_params(self) -> Vec<Param> {
         let mut v = Vec::new();
-        for t in Thr::ALL {
+        for t in [Thr::Port, Thr::Starboard, Thr::Vertical] {
             v.push(Param::ThrustLin(t));
             if self != BaseKind::Model2 {
                 v.push(Param::ThrustQuad(t));
@@ -140,16 +165,19 @@ impl BaseKind {
     }
 }
 
+/// Number of thruster groups ([`Thr::ALL`]).
+pub const N_GROUPS: usize = 5;
+
 /// Values of every effect parameter (off values when an effect is absent).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct EffectValues {
-    /// Reverse/forward thrust ratio per thruster.
-    pub reverse_ratio: [f64; 3],
+    /// Reverse/forward thrust ratio per thruster group.
+    pub reverse_ratio: [f64; N_GROUPS],
     /// Lag time constant, s.
     pub lag_tau_s: f64,
     /// Dead zone, fraction of full command.
     pub deadzone: f64,
-    /// Power budget in Σ|u|³ units.
+    /// Power budget in Σ|u|³ units (three-thruster equivalents).
     pub power_max: f64,
     /// Horizontal line of action below CO, m.
     pub arm_zh_m: f64,
@@ -163,7 +191,7 @@ pub struct EffectValues {
     pub torque_h_m: f64,
     /// model1's W − B, N.
     pub net_weight_m1_n: f64,
-    /// Trim for the depth kinematics (model1/model2), rad.
+    /// Trim for the depth kinematics (models without pitch), rad.
     pub trim_rad: f64,
     /// Reverse/forward quadratic drag ratio per axis.
     pub drag_ratio: [f64; 6],
@@ -175,8 +203,8 @@ pub struct EffectValues {
     pub depth_drift_mps: f64,
     /// Compass deviation (sin, cos), deg.
     pub compass_dev_deg: [f64; 2],
-    /// Compass interference per unit |u|, deg.
-    pub emi_deg: [f64; 3],
+    /// Compass interference per unit |u| of a thruster group, deg.
+    pub emi_deg: [f64; N_GROUPS],
     /// Roll bias, deg.
     pub bias_roll_deg: f64,
     /// Pitch bias, deg.
@@ -186,7 +214,7 @@ pub struct EffectValues {
 impl Default for EffectValues {
     fn default() -> Self {
         Self {
-            reverse_ratio: [1.0; 3],
+            reverse_ratio: [1.0; N_GROUPS],
             lag_tau_s: 0.0,
             deadzone: 0.0,
             power_max: 3.0,
@@ -202,11 +230,19 @@ impl Default for EffectValues {
             tether_ne_n: [0.0; 2],
             depth_drift_mps: 0.0,
             compass_dev_deg: [0.0; 2],
-            emi_deg: [0.0; 3],
+            emi_deg: [0.0; N_GROUPS],
             bias_roll_deg: 0.0,
             bias_pitch_deg: 0.0,
         }
     }
+}
+
+/// A vehicle-file base: the definition (with calibrated process parameters) and its
+/// precomputed dynamics.
+#[derive(Debug, Clone)]
+struct VehicleBase {
+    def: VehicleDef,
+    dynm: VehicleDynamics,
 }
 
 #[derive(Debug, Clone)]
@@ -214,24 +250,38 @@ enum Base {
     M1(Model1),
     M2(Model2),
     M3(Box<Model3>),
+    Vehicle(Box<VehicleBase>),
 }
 
-/// A base model with calibration and effects.
+/// Per-thruster thrust values (N) or commands (%), up to [`MAX_THRUSTERS`].
+pub type PerThruster = [f64; MAX_THRUSTERS];
+
+/// A base model with calibration, effects and discovered terms.
 #[derive(Debug, Clone)]
 pub struct LabModel {
     kind: BaseKind,
     base: Base,
     base_text: String,
-    coef_lin: [f64; 3],
-    coef_quad: [f64; 3],
-    thrust_lin: [f64; 3],
-    thrust_quad: [f64; 3],
+    /// Thrusters: count and calibration group of each.
+    n_thr: usize,
+    thr_group: [Thr; MAX_THRUSTERS],
+    /// Pro 4 bases: the base's own (T_l, T_q) per thruster.
+    coef_lin: PerThruster,
+    coef_quad: PerThruster,
+    /// Calibrated scales per thruster group.
+    thrust_lin: [f64; N_GROUPS],
+    thrust_quad: [f64; N_GROUPS],
     fx: EffectValues,
     active: Vec<EffectId>,
+    terms: Vec<Term>,
+    /// (command index, filter index) of the filtered-command signals the terms use.
+    filters: Vec<(u8, u8)>,
     name: String,
     drag_tau_factor: [f64; 6],
     has_sensor_fx: bool,
     has_body_fx: bool,
+    /// The base file's own values of the base parameters (the priors' means).
+    nominal: Vec<(Param, f64)>,
 }
 
 fn thrust_coefs(map: &ThrustMap) -> (f64, f64) {
@@ -241,9 +291,95 @@ fn thrust_coefs(map: &ThrustMap) -> (f64, f64) {
     }
 }
 
+/// The Pro 4's command channels, in its thruster order.
+const PRO4_CHANNELS: [CommandChannel; 3] = [
+    CommandChannel::Port,
+    CommandChannel::Starboard,
+    CommandChannel::Vertical,
+];
+
 impl LabModel {
+    fn blank(kind: BaseKind, base: Base, base_text: &str) -> Self {
+        Self {
+            kind,
+            base,
+            base_text: base_text.to_string(),
+            n_thr: 3,
+            thr_group: [Thr::Port; MAX_THRUSTERS],
+            coef_lin: [0.0; MAX_THRUSTERS],
+            coef_quad: [0.0; MAX_THRUSTERS],
+            thrust_lin: [1.0; N_GROUPS],
+            thrust_quad: [1.0; N_GROUPS],
+            fx: EffectValues::default(),
+            active: Vec::new(),
+            terms: Vec::new(),
+            filters: Vec::new(),
+            name: kind.name().to_string(),
+            drag_tau_factor: [1.0; 6],
+            has_sensor_fx: false,
+            has_body_fx: false,
+            nominal: Vec::new(),
+        }
+    }
+
+    /// Records the base parameters' current values as the nominal ones.
+    fn record_nominal(mut self) -> Self {
+        self.nominal = Param::all()
+            .into_iter()
+            .filter(|p| {
+                p.off_value().is_none() || matches!(p, Param::NetWeight | Param::CgX | Param::CgY)
+            })
+            .filter_map(|p| self.get(p).map(|v| (p, v)))
+            .collect();
+        self
+    }
+
+    /// The base file's own value of a base parameter (thrust scales: 1).
+    pub fn nominal(&self, p: Param) -> Option<f64> {
+        self.nominal.iter().find(|(q, _)| *q == p).map(|(_, v)| *v)
+    }
+
+    /// The documented prior of a base parameter: (mean = the base file's value, σ)
+    /// (`None` for effect parameters). Pro 4 bases: [`crate::params::documented_pro4`];
+    /// vehicle files: their `[uncertainty]` table.
+    pub fn prior_of(&self, p: Param) -> Option<(f64, f64)> {
+        use crate::params::Documented;
+        if matches!(p, Param::ArmZh | Param::ArmXv | Param::ArmYv) && self.arms_calibrated() {
+            let s = match &self.base {
+                Base::Vehicle(v) => v.def.uncertainty.thruster_position_m,
+                _ => return None,
+            };
+            return Some((0.0, s));
+        }
+        let mean = self.nominal(p)?;
+        let doc = match &self.base {
+            Base::Vehicle(v) => {
+                let u = &v.def.uncertainty;
+                match p {
+                    Param::ThrustLin(_) | Param::ThrustQuad(_) => {
+                        Documented::Rel(u.thrust_gain_rel)
+                    }
+                    Param::DragLin(_) | Param::DragQuad(_) => Documented::Rel(u.damping_rel),
+                    Param::AddedMass(_) => Documented::Rel(u.added_mass_rel),
+                    Param::CgX | Param::CgY | Param::CgZ => Documented::Abs(u.cg_m),
+                    Param::NetWeight => Documented::Abs(u.net_weight_n),
+                    _ => return None,
+                }
+            }
+            _ => crate::params::documented_pro4(p)?,
+        };
+        let sigma = match doc {
+            Documented::Rel(r) => (r * mean.abs()).max(p.meta().scale),
+            Documented::Abs(a) => a.max(1e-9),
+        };
+        Some((mean, sigma))
+    }
+
     /// From a base model's parameter-file text (`label` names it in errors).
     pub fn from_base_text(kind: BaseKind, text: &str, label: &str) -> Result<Self, LabError> {
+        if kind == BaseKind::Vehicle {
+            return Self::from_vehicle_text(text, label);
+        }
         let boxed = load_model(kind.name(), text, label)?;
         let base = if let Some(m) = boxed.as_any().downcast_ref::<Model1>() {
             Base::M1(m.clone())
@@ -285,29 +421,45 @@ impl LabModel {
                 );
                 ([a.0, b.0, c.0], [a.1, b.1, c.1])
             }
+            Base::Vehicle(_) => ([0.0; 3], [0.0; 3]),
         };
-        let mut drag_tau_factor = [1.0; 6];
-        if let Base::M1(m) = &base {
-            let a = m.params().alpha;
-            drag_tau_factor[0] = 1.0 / a[0];
-            drag_tau_factor[2] = 1.0 / a[1];
-            drag_tau_factor[5] = 1.0 / a[2];
+        let mut m = Self::blank(kind, base, text);
+        m.coef_lin[..3].copy_from_slice(&coef_lin);
+        m.coef_quad[..3].copy_from_slice(&coef_quad);
+        m.thr_group[0] = Thr::Port;
+        m.thr_group[1] = Thr::Starboard;
+        m.thr_group[2] = Thr::Vertical;
+        if let Base::M1(b) = &m.base {
+            let a = b.params().alpha;
+            m.drag_tau_factor[0] = 1.0 / a[0];
+            m.drag_tau_factor[2] = 1.0 / a[1];
+            m.drag_tau_factor[5] = 1.0 / a[2];
         }
-        Ok(Self {
-            kind,
-            base,
-            base_text: text.to_string(),
-            coef_lin,
-            coef_quad,
-            thrust_lin: [1.0; 3],
-            thrust_quad: [1.0; 3],
-            fx: EffectValues::default(),
-            active: Vec::new(),
-            name: kind.name().to_string(),
-            drag_tau_factor,
-            has_sensor_fx: false,
-            has_body_fx: false,
-        })
+        Ok(m.record_nominal())
+    }
+
+    /// From a vehicle definition file's text (see [`rov_dynamics::models::vehicle`]).
+    pub fn from_vehicle_text(text: &str, label: &str) -> Result<Self, LabError> {
+        let def = VehicleDef::parse(text, label)?;
+        let dynm = VehicleDynamics::new(&def).map_err(|e| LabError::Model {
+            detail: format!("{label}: {e}"),
+        })?;
+        let n_thr = def.thrusters.len().min(MAX_THRUSTERS);
+        let mut groups = [Thr::Horizontal; MAX_THRUSTERS];
+        for (g, t) in groups.iter_mut().zip(&def.thrusters) {
+            *g = t.group;
+        }
+        let name = def.name.clone();
+        let mut m = Self::blank(
+            BaseKind::Vehicle,
+            Base::Vehicle(Box::new(VehicleBase { def, dynm })),
+            text,
+        );
+        m.n_thr = n_thr;
+        m.thr_group = groups;
+        m.name = name;
+        m.refresh_name();
+        Ok(m.record_nominal())
     }
 
     /// A shipped base model (`config/models/`).
@@ -320,9 +472,35 @@ impl LabModel {
         Self::from_base_text(kind, text, &format!("config/models/{}.toml", kind.name()))
     }
 
+    /// The vehicle's weight W, N.
+    pub fn weight_n(&self) -> f64 {
+        match &self.base {
+            Base::M1(m) => m.params().mass_kg * 9.81,
+            Base::M2(m) => m.params().weight_n,
+            Base::M3(m) => m.params().process.hydrostatics.weight_n,
+            Base::Vehicle(v) => v.def.process.hydrostatics.weight_n,
+        }
+    }
+
     /// The base kind.
     pub fn kind(&self) -> BaseKind {
         self.kind
+    }
+
+    /// The base's name: "model1" … or the vehicle file's `vehicle`.
+    pub fn base_name(&self) -> &str {
+        match &self.base {
+            Base::Vehicle(v) => &v.def.name,
+            _ => self.kind.name(),
+        }
+    }
+
+    /// The vehicle definition of a vehicle-file base.
+    pub fn vehicle(&self) -> Option<&VehicleDef> {
+        match &self.base {
+            Base::Vehicle(v) => Some(&v.def),
+            _ => None,
+        }
     }
 
     /// The base parameter-file text this model was built from.
@@ -335,46 +513,295 @@ impl LabModel {
         &self.active
     }
 
+    /// Discovered terms of the model (in order of addition).
+    pub fn terms(&self) -> &[Term] {
+        &self.terms
+    }
+
     /// The effect values.
     pub fn effect_values(&self) -> &EffectValues {
         &self.fx
     }
 
+    /// Whether the model has pitch and roll.
+    pub fn has_attitude(&self) -> bool {
+        match &self.base {
+            Base::Vehicle(v) => v.def.structure == Structure::Fossen6,
+            _ => self.kind.has_attitude(),
+        }
+    }
+
+    /// Which of ν = (u, v, w, p, q, r) the model's state can move.
+    pub fn nu_active(&self) -> [bool; 6] {
+        match &self.base {
+            Base::Vehicle(v) => v.def.structure.active(),
+            Base::M3(_) => [true; 6],
+            _ => [true, false, true, false, false, true],
+        }
+    }
+
+    /// Whether a vehicle file documents its thruster positions as uncertain, so that the
+    /// calibration refits the thrust lines (the moment arms become base parameters).
+    fn arms_calibrated(&self) -> bool {
+        matches!(&self.base, Base::Vehicle(v) if v.def.uncertainty.thruster_position_m > 0.0 && v.def.structure == Structure::Fossen6)
+    }
+
+    /// Whether the base already contains an effect.
+    pub fn contains(&self, e: EffectId) -> bool {
+        if e == EffectId::ThrusterMomentArm {
+            return self.arms_calibrated();
+        }
+        if e == EffectId::PitchDepthCoupling || e == EffectId::RestoringOffset {
+            return self.has_attitude() && self.kind.contains(e);
+        }
+        self.kind.contains(e)
+    }
+
+    /// Why an effect cannot be represented in this model, if so.
+    pub fn not_applicable(&self, e: EffectId) -> Option<&'static str> {
+        if let Some(r) = self.kind.not_applicable(e) {
+            return Some(r);
+        }
+        if self.kind == BaseKind::Vehicle && !self.has_attitude() {
+            return match e {
+                EffectId::RestoringOffset
+                | EffectId::AttitudeBias
+                | EffectId::ThrusterMomentArm => Some(
+                    "it acts on pitch and roll, which this vehicle's structure locks (use structure = \"fossen6\")",
+                ),
+                _ => None,
+            };
+        }
+        None
+    }
+
+    /// The base parameters that calibration frees.
+    pub fn calibration_params(&self) -> Vec<Param> {
+        let Base::Vehicle(v) = &self.base else {
+            return self.kind.calibration_params();
+        };
+        let mut out = Vec::new();
+        for g in v.def.groups() {
+            out.push(Param::ThrustLin(g));
+            if v.def
+                .thrusters
+                .iter()
+                .any(|t| t.group == g && t.forward.is_quadratic())
+            {
+                out.push(Param::ThrustQuad(g));
+            }
+        }
+        let active = v.def.structure.active();
+        for a in Axis::ALL {
+            if active[a.index()] {
+                out.push(Param::DragLin(a));
+                out.push(Param::DragQuad(a));
+            }
+        }
+        if v.def.structure == Structure::Fossen6 {
+            out.push(Param::CgZ);
+            out.push(Param::AddedMass(Axis::Sway));
+            out.push(Param::AddedMass(Axis::Roll));
+            out.push(Param::AddedMass(Axis::Pitch));
+        }
+        if self.arms_calibrated() {
+            for p in [Param::ArmZh, Param::ArmXv, Param::ArmYv] {
+                if self.applicable(p) {
+                    out.push(p);
+                }
+            }
+        }
+        out
+    }
+
     /// Marks an effect as part of the model (its parameters keep their values). A
     /// contained effect is not added (its parameters are base parameters).
     pub fn add_effect(&mut self, e: EffectId) {
-        if !self.kind.contains(e) && !self.active.contains(&e) {
+        if !self.contains(e) && !self.active.contains(&e) {
             self.active.push(e);
         }
         self.refresh_name();
     }
 
+    /// Adds a discovered term (coefficient as given); returns its index. A term of the
+    /// same DOF and form replaces the old one's coefficient.
+    pub fn add_term(&mut self, term: Term) -> usize {
+        if let Some(i) = self
+            .terms
+            .iter()
+            .position(|t| t.dof == term.dof && t.kind == term.kind)
+        {
+            if let Some(t) = self.terms.get_mut(i) {
+                *t = term;
+            }
+            return i;
+        }
+        self.terms.push(term);
+        if let Some(f) = term.kind.filter()
+            && !self.filters.contains(&f)
+            && self.filters.len() < MAX_FILTERS
+        {
+            self.filters.push(f);
+        }
+        self.refresh_name();
+        self.terms.len() - 1
+    }
+
+    /// The filtered-command signals the terms use: (command index, filter index).
+    pub fn filters(&self) -> &[(u8, u8)] {
+        &self.filters
+    }
+
     fn refresh_name(&mut self) {
-        let mut n = self.kind.name().to_string();
+        let mut n = self.base_name().to_string();
         for e in &self.active {
             n.push('+');
             n.push_str(e.key());
+        }
+        let names = self.command_names();
+        for t in &self.terms {
+            n.push('+');
+            n.push_str(&t.id(&names));
         }
         self.name = n;
         let f = &self.fx;
         self.has_sensor_fx = f.depth_drift_mps != 0.0
             || f.compass_dev_deg != [0.0; 2]
-            || f.emi_deg != [0.0; 3]
+            || f.emi_deg != [0.0; N_GROUPS]
             || f.bias_roll_deg != 0.0
             || f.bias_pitch_deg != 0.0;
-        self.has_body_fx =
-            f.net_weight_m1_n != 0.0 || f.tether_ne_n != [0.0; 2] || f.drag_ratio != [1.0; 6];
+        self.has_body_fx = f.net_weight_m1_n != 0.0
+            || f.tether_ne_n != [0.0; 2]
+            || f.drag_ratio != [1.0; 6]
+            || !self.terms.is_empty();
+    }
+
+    /// Number of thrusters.
+    pub fn n_thrusters(&self) -> usize {
+        self.n_thr
+    }
+
+    /// The calibration group of thruster `i`.
+    pub fn thruster_group(&self, i: usize) -> Thr {
+        self.thr_group.get(i).copied().unwrap_or(Thr::Port)
+    }
+
+    /// Whether some thruster belongs to a group.
+    pub fn has_group(&self, g: Thr) -> bool {
+        self.thr_group[..self.n_thr].contains(&g)
+    }
+
+    /// The command channels the model reads.
+    pub fn command_channels(&self) -> Vec<CommandChannel> {
+        match &self.base {
+            Base::Vehicle(v) => v.def.channels(),
+            _ => PRO4_CHANNELS.to_vec(),
+        }
+    }
+
+    /// Names of the model's command signals (terms' `cmd_NAME`).
+    pub fn command_names(&self) -> Vec<&'static str> {
+        self.command_channels().iter().map(|c| c.name()).collect()
+    }
+
+    /// The model's command signals (fractions of full command) from a command vector.
+    #[inline]
+    pub fn command_signals(&self, c: &Commands) -> [f64; N_COMMANDS] {
+        let mut out = [0.0; N_COMMANDS];
+        match &self.base {
+            Base::Vehicle(v) => {
+                for (o, ch) in out.iter_mut().zip(v.def.channels()) {
+                    *o = c[ch.index()] * 0.01;
+                }
+            }
+            _ => {
+                for (o, ch) in out.iter_mut().zip(PRO4_CHANNELS) {
+                    *o = c[ch.index()] * 0.01;
+                }
+            }
+        }
+        out
+    }
+
+    /// Thruster commands (%) for a command vector (the mix of a vehicle file; the Pro 4's
+    /// port, starboard and vertical channels otherwise).
+    #[inline]
+    pub fn thruster_targets(&self, c: &Commands) -> PerThruster {
+        let mut out = [0.0; MAX_THRUSTERS];
+        match &self.base {
+            Base::Vehicle(v) => {
+                let u = v.def.thruster_commands(c);
+                for (o, x) in out.iter_mut().zip(u) {
+                    *o = x * 100.0;
+                }
+            }
+            _ => {
+                for (o, ch) in out.iter_mut().zip(PRO4_CHANNELS) {
+                    *o = c[ch.index()];
+                }
+            }
+        }
+        out
+    }
+
+    /// Lag time constant of each thruster, s: the vehicle file's own lag plus the
+    /// `thruster-lag` effect's.
+    pub fn lag_taus(&self) -> PerThruster {
+        let mut out = [self.fx.lag_tau_s; MAX_THRUSTERS];
+        if let Base::Vehicle(v) = &self.base {
+            for (o, t) in out.iter_mut().zip(&v.def.thrusters) {
+                *o += t.lag_s;
+            }
+        }
+        out
+    }
+
+    /// Whether any thruster lags.
+    pub fn lag_on(&self) -> bool {
+        self.lag_taus()[..self.n_thr].iter().any(|t| *t > 1e-4)
     }
 
     /// Whether a parameter exists in this model.
     pub fn applicable(&self, p: Param) -> bool {
         let m3 = self.kind == BaseKind::Model3;
+        let planar_axis = |a: Axis| matches!(a, Axis::Surge | Axis::Heave | Axis::Yaw);
+        if let Base::Vehicle(v) = &self.base {
+            let active = v.def.structure.active();
+            let six = v.def.structure == Structure::Fossen6;
+            return match p {
+                Param::ThrustLin(g) | Param::ReverseRatio(g) | Param::Emi(g) => self.has_group(g),
+                Param::ThrustQuad(g) => v
+                    .def
+                    .thrusters
+                    .iter()
+                    .any(|t| t.group == g && t.forward.is_quadratic()),
+                Param::DragLin(a) | Param::DragQuad(a) | Param::AddedMass(a) => active[a.index()],
+                Param::DragRatio(a) => active[a.index()],
+                Param::CgZ | Param::CgX | Param::CgY | Param::BiasRoll | Param::BiasPitch => six,
+                // A vehicle's moment arms shift its thrusters from the file's positions:
+                // the non-vertical thrusters' height, the vertical ones' x and y.
+                Param::ArmZh => {
+                    six && self.thr_group[..self.n_thr]
+                        .iter()
+                        .any(|g| *g != Thr::Vertical)
+                }
+                Param::ArmXv | Param::ArmYv => six && self.has_group(Thr::Vertical),
+                Param::TorqueV | Param::TorqueH => false,
+                Param::TrimDeg => !active[4],
+                Param::TermCoef(i, _) => (i as usize) < self.terms.len(),
+                _ => true,
+            };
+        }
         match p {
-            Param::ThrustQuad(_) => self.kind != BaseKind::Model2,
-            Param::DragLin(a) | Param::DragQuad(a) => {
-                m3 || matches!(a, Axis::Surge | Axis::Heave | Axis::Yaw)
+            Param::ThrustLin(g) | Param::ReverseRatio(g) | Param::Emi(g) => {
+                matches!(g, Thr::Port | Thr::Starboard | Thr::Vertical)
             }
-            Param::AddedMass(a) => m3 || matches!(a, Axis::Surge | Axis::Heave | Axis::Yaw),
+            Param::ThrustQuad(g) => {
+                self.kind != BaseKind::Model2
+                    && matches!(g, Thr::Port | Thr::Starboard | Thr::Vertical)
+            }
+            Param::DragLin(a) | Param::DragQuad(a) => m3 || planar_axis(a),
+            Param::AddedMass(a) => m3 || planar_axis(a),
             Param::CgZ | Param::CgX | Param::CgY => m3,
             Param::ArmZh
             | Param::ArmXv
@@ -383,7 +810,8 @@ impl LabModel {
             | Param::BiasRoll
             | Param::BiasPitch => m3,
             Param::TrimDeg => !m3,
-            Param::DragRatio(a) => m3 || matches!(a, Axis::Surge | Axis::Heave | Axis::Yaw),
+            Param::DragRatio(a) => m3 || planar_axis(a),
+            Param::TermCoef(i, _) => (i as usize) < self.terms.len(),
             _ => true,
         }
     }
@@ -399,21 +827,26 @@ impl LabModel {
             Param::ThrustQuad(t) => self.thrust_quad[t.index()],
             Param::DragLin(a) => self.drag(a).0,
             Param::DragQuad(a) => self.drag(a).1,
-            Param::CgZ | Param::CgX | Param::CgY => match &self.base {
-                Base::M3(m) => {
-                    let cg = m.params().process.rigid_body.cg_from_co_m;
-                    match p {
-                        Param::CgX => cg.x,
-                        Param::CgY => cg.y,
-                        _ => cg.z,
-                    }
+            Param::CgZ | Param::CgX | Param::CgY => {
+                let cg = match &self.base {
+                    Base::M3(m) => m.params().process.rigid_body.cg_from_co_m,
+                    Base::Vehicle(v) => v.def.process.rigid_body.cg_from_co_m,
+                    _ => return None,
+                };
+                match p {
+                    Param::CgX => cg.x,
+                    Param::CgY => cg.y,
+                    _ => cg.z,
                 }
-                _ => return None,
-            },
+            }
             Param::NetWeight => match &self.base {
                 Base::M1(_) => f.net_weight_m1_n,
                 Base::M2(m) => m.params().weight_n - m.params().buoyancy_n,
                 Base::M3(m) => m.net_weight_n(),
+                Base::Vehicle(v) => {
+                    let h = &v.def.process.hydrostatics;
+                    h.weight_n - h.buoyancy_n
+                }
             },
             Param::AddedMass(a) => self.added_mass(a)?,
             Param::ReverseRatio(t) => f.reverse_ratio[t.index()],
@@ -437,6 +870,10 @@ impl LabModel {
             Param::Emi(t) => f.emi_deg[t.index()],
             Param::BiasRoll => f.bias_roll_deg,
             Param::BiasPitch => f.bias_pitch_deg,
+            Param::TermCoef(i, _) => {
+                let t = self.terms.get(i as usize)?;
+                t.coef * t.scale
+            }
         })
     }
 
@@ -461,6 +898,11 @@ impl LabModel {
             }
             Base::M3(m) => {
                 let d = &m.params().process.damping;
+                let i = a.index();
+                (d.linear[(i, i)], d.quadratic[i])
+            }
+            Base::Vehicle(v) => {
+                let d = &v.def.process.damping;
                 let i = a.index();
                 (d.linear[(i, i)], d.quadratic[i])
             }
@@ -492,6 +934,10 @@ impl LabModel {
                 let i = a.index();
                 Some(m.params().process.added_mass[(i, i)])
             }
+            Base::Vehicle(v) => {
+                let i = a.index();
+                Some(v.def.process.added_mass[(i, i)])
+            }
         }
     }
 
@@ -514,6 +960,10 @@ impl LabModel {
         };
         let mut m3 = match &self.base {
             Base::M3(m) => Some(*m.params()),
+            _ => None,
+        };
+        let mut vp = match &self.base {
+            Base::Vehicle(v) => Some(v.def.process),
             _ => None,
         };
         for (p, v) in params.iter().zip(values) {
@@ -551,24 +1001,26 @@ impl LabModel {
                         };
                         *slot = -v;
                     }
-                    if let Some(q) = m3.as_mut() {
+                    let process = m3.as_mut().map(|q| &mut q.process).or(vp.as_mut());
+                    if let Some(q) = process {
                         let i = a.index();
                         if lin {
-                            q.process.damping.linear[(i, i)] = v;
+                            q.damping.linear[(i, i)] = v;
                         } else {
-                            q.process.damping.quadratic[i] = v;
+                            q.damping.quadratic[i] = v;
                         }
                     }
                 }
                 Param::CgX | Param::CgY | Param::CgZ => {
-                    if let Some(q) = m3.as_mut() {
+                    let process = m3.as_mut().map(|q| &mut q.process).or(vp.as_mut());
+                    if let Some(q) = process {
                         let k = match p {
                             Param::CgX => 0,
                             Param::CgY => 1,
                             _ => 2,
                         };
-                        q.process.rigid_body.cg_from_co_m[k] = v;
-                        q.process.hydrostatics.cg_from_co_m[k] = v;
+                        q.rigid_body.cg_from_co_m[k] = v;
+                        q.hydrostatics.cg_from_co_m[k] = v;
                     }
                 }
                 Param::NetWeight => {
@@ -578,8 +1030,9 @@ impl LabModel {
                     if let Some(q) = m2.as_mut() {
                         q.buoyancy_n = q.weight_n - v;
                     }
-                    if let Some(q) = m3.as_mut() {
-                        q.process.hydrostatics.buoyancy_n = q.process.hydrostatics.weight_n - v;
+                    let process = m3.as_mut().map(|q| &mut q.process).or(vp.as_mut());
+                    if let Some(q) = process {
+                        q.hydrostatics.buoyancy_n = q.hydrostatics.weight_n - v;
                     }
                 }
                 Param::AddedMass(a) => {
@@ -598,9 +1051,10 @@ impl LabModel {
                             _ => q.n_rdot_kgm2 = -v,
                         }
                     }
-                    if let Some(q) = m3.as_mut() {
+                    let process = m3.as_mut().map(|q| &mut q.process).or(vp.as_mut());
+                    if let Some(q) = process {
                         let i = a.index();
-                        q.process.added_mass[(i, i)] = v;
+                        q.added_mass[(i, i)] = v;
                     }
                 }
                 Param::ReverseRatio(t) => f.reverse_ratio[t.index()] = v,
@@ -624,6 +1078,13 @@ impl LabModel {
                 Param::Emi(t) => f.emi_deg[t.index()] = v,
                 Param::BiasRoll => f.bias_roll_deg = v,
                 Param::BiasPitch => f.bias_pitch_deg = v,
+                Param::TermCoef(i, _) => {
+                    if let Some(t) = self.terms.get_mut(*i as usize)
+                        && t.scale > 0.0
+                    {
+                        t.coef = v / t.scale;
+                    }
+                }
             }
         }
         if let Some(p) = m1 {
@@ -638,6 +1099,13 @@ impl LabModel {
             })?;
             self.base = Base::M3(Box::new(m));
         }
+        if let (Some(p), Base::Vehicle(v)) = (vp, &mut self.base) {
+            let dynm = VehicleDynamics::with_process(&v.def, p).map_err(|e| LabError::Model {
+                detail: e.to_string(),
+            })?;
+            v.def.process = p;
+            v.dynm = dynm;
+        }
         self.refresh_name();
         Ok(())
     }
@@ -650,44 +1118,65 @@ impl LabModel {
             .collect()
     }
 
-    fn base_dyn(&self) -> &dyn VehicleModel {
+    fn pro4_dyn(&self) -> Option<&dyn VehicleModel> {
         match &self.base {
-            Base::M1(m) => m,
-            Base::M2(m) => m,
-            Base::M3(m) => m.as_ref(),
+            Base::M1(m) => Some(m),
+            Base::M2(m) => Some(m),
+            Base::M3(m) => Some(m.as_ref()),
+            Base::Vehicle(_) => None,
         }
     }
 
-    /// Thrust of one thruster for a command in percent (before the power limit), N.
+    /// Thrust of thruster `i` for a command in percent (before the power limit), N.
     #[inline]
-    pub fn thrust_n(&self, t: usize, pct: f64) -> f64 {
+    pub fn thrust_n(&self, i: usize, pct: f64) -> f64 {
         let mut u = pct * 0.01;
         let dz = self.fx.deadzone;
         if dz > 0.0 {
             let a = (u.abs() - dz).max(0.0) / (1.0 - dz);
             u = if u < 0.0 { -a } else { a };
         }
-        let f = self.thrust_lin[t] * self.coef_lin[t] * u
-            + self.thrust_quad[t] * self.coef_quad[t] * u * u.abs();
+        let g = self.thruster_group(i).index();
+        let f = match &self.base {
+            Base::Vehicle(v) => {
+                let Some(t) = v.def.thrusters.get(i) else {
+                    return 0.0;
+                };
+                let curve = if u >= 0.0 { &t.forward } else { &t.reverse };
+                let (a, b) = curve.parts(u.abs());
+                u.signum() * (self.thrust_lin[g] * a + self.thrust_quad[g] * b)
+            }
+            _ => {
+                let (cl, cq) = (
+                    self.coef_lin.get(i).copied().unwrap_or(0.0),
+                    self.coef_quad.get(i).copied().unwrap_or(0.0),
+                );
+                self.thrust_lin[g] * cl * u + self.thrust_quad[g] * cq * u * u.abs()
+            }
+        };
         if u < 0.0 {
-            f * self.fx.reverse_ratio[t]
+            f * self.fx.reverse_ratio[g]
         } else {
             f
         }
     }
 
-    /// Per-thruster forces for a command (after the power limit).
+    /// Per-thruster forces for thruster commands in percent (after the power limit), N.
     #[inline]
-    pub fn forces(&self, cmd: &ThrustPct) -> ThrusterForces {
-        let mut f = [
-            self.thrust_n(0, cmd.port),
-            self.thrust_n(1, cmd.starboard),
-            self.thrust_n(2, cmd.vertical),
-        ];
+    pub fn thrusts(&self, pct: &PerThruster) -> PerThruster {
+        let mut f = [0.0; MAX_THRUSTERS];
+        for (i, x) in f.iter_mut().enumerate().take(self.n_thr) {
+            *x = self.thrust_n(i, pct[i]);
+        }
         let pmax = self.fx.power_max;
         if pmax < 3.0 {
-            let c = |x: f64| (x * 0.01).abs().powi(3);
-            let demand = c(cmd.port) + c(cmd.starboard) + c(cmd.vertical);
+            // Σ|u|³ in three-thruster equivalents (the Pro 4's scale; 3 never limits).
+            let norm = 3.0 / self.n_thr.max(1) as f64;
+            let demand = norm
+                * pct[..self.n_thr]
+                    .iter()
+                    .map(|x| (x * 0.01).abs().powi(3))
+                    .sum::<f64>();
             if demand > pmax {
                 let s = pmax / demand;
                 for x in &mut f {
@@ -695,6 +1184,13 @@ impl LabModel {
                 }
             }
         }
+        f
+    }
+
+    /// Per-thruster forces for a Pro 4 command (after the power limit).
+    pub fn forces(&self, cmd: &ThrustPct) -> ThrusterForces {
+        let c = Self::commands_of(cmd);
+        let f = self.thrusts(&self.thruster_targets(&c));
         ThrusterForces {
             port_n: f[0],
             starboard_n: f[1],
@@ -704,16 +1200,69 @@ impl LabModel {
 
     /// τ of the thrusters: the base allocation plus arms and reaction torques.
     #[inline]
-    pub fn thrust_tau(&self, f: &ThrusterForces, state: &ModelState) -> Vector6 {
-        let mut tau = self.base_dyn().generalized_force(f, state);
+    pub fn thrust_tau(&self, f: &PerThruster, state: &ModelState) -> Vector6 {
+        if let Base::Vehicle(v) = &self.base {
+            let mut tau = v.dynm.tau(f);
+            let x = &self.fx;
+            if x.arm_zh_m != 0.0 || x.arm_xv_m != 0.0 || x.arm_yv_m != 0.0 {
+                // Moving a thruster by Δr adds Δr × F d to the moment.
+                for (i, fi) in f.iter().enumerate().take(self.n_thr) {
+                    if *fi == 0.0 {
+                        continue;
+                    }
+                    let d = v.dynm.column(i);
+                    let dr = if self.thruster_group(i) == Thr::Vertical {
+                        nalgebra::Vector3::new(x.arm_xv_m, x.arm_yv_m, 0.0)
+                    } else {
+                        nalgebra::Vector3::new(0.0, 0.0, x.arm_zh_m)
+                    };
+                    let m = dr.cross(&nalgebra::Vector3::new(d[0], d[1], d[2])) * *fi;
+                    tau[3] += m.x;
+                    tau[4] += m.y;
+                    tau[5] += m.z;
+                }
+            }
+            return tau;
+        }
+        let forces = ThrusterForces {
+            port_n: f[0],
+            starboard_n: f[1],
+            vertical_n: f[2],
+        };
+        let mut tau = match self.pro4_dyn() {
+            Some(m) => m.generalized_force(&forces, state),
+            None => Vector6::zeros(),
+        };
         let x = &self.fx;
-        tau[3] += x.arm_yv_m * f.vertical_n + x.torque_h_m * (f.port_n - f.starboard_n);
-        tau[4] += x.arm_zh_m * (f.port_n + f.starboard_n) - x.arm_xv_m * f.vertical_n;
-        tau[5] += x.torque_v_m * f.vertical_n;
+        tau[3] += x.arm_yv_m * f[2] + x.torque_h_m * (f[0] - f[1]);
+        tau[4] += x.arm_zh_m * (f[0] + f[1]) - x.arm_xv_m * f[2];
+        tau[5] += x.torque_v_m * f[2];
         tau
     }
 
-    /// State-dependent extra body forces of the effects.
+    /// τ of the discovered terms for a state, command signals and filter states.
+    #[inline]
+    pub fn terms_tau(&self, state: &ModelState, cmd: &[f64], filt: &[f64]) -> Vector6 {
+        let mut tau = Vector6::zeros();
+        if self.terms.is_empty() {
+            return tau;
+        }
+        let x = TermInputs {
+            eta: &state.eta,
+            nu: &state.nu,
+            cmd,
+            filt,
+        };
+        for t in &self.terms {
+            let d = t.dof as usize;
+            if d < 6 {
+                tau[d] += t.coef * t.kind.value(&x) * self.drag_tau_factor[d];
+            }
+        }
+        tau
+    }
+
+    /// State-dependent extra body forces of the effects (not the terms).
     #[inline]
     fn extra_tau(&self, state: &ModelState) -> Vector6 {
         let x = &self.fx;
@@ -750,15 +1299,7 @@ impl LabModel {
     }
 
     fn drag_q_index(&self, i: usize) -> f64 {
-        let a = match i {
-            0 => Axis::Surge,
-            1 => Axis::Sway,
-            2 => Axis::Heave,
-            3 => Axis::Roll,
-            4 => Axis::Pitch,
-            _ => Axis::Yaw,
-        };
-        self.drag(a).1
+        self.drag(Axis::ALL.get(i).copied().unwrap_or(Axis::Yaw)).1
     }
 
     #[inline]
@@ -774,7 +1315,8 @@ impl LabModel {
         }
     }
 
-    /// (η̇, ν̇) for a thrust τ: the hot path of the lab's simulator.
+    /// (η̇, ν̇) for a given τ of the thrusters and terms: the hot path of the lab's
+    /// simulator.
     #[inline]
     pub fn eta_nu_derivative(
         &self,
@@ -783,18 +1325,33 @@ impl LabModel {
         tau_thrust: &Vector6,
         current: &CurrentSample,
     ) -> (Vector6, Vector6) {
-        if let Base::M3(m) = &self.base {
-            let st = ModelState::new(*eta, *nu);
-            let tau = tau_thrust + self.extra_tau(&st);
-            return m
-                .process()
-                .state_derivative(eta, nu, &tau, &self.effect_current(current));
+        match &self.base {
+            Base::M3(m) => {
+                let st = ModelState::new(*eta, *nu);
+                let tau = tau_thrust + self.extra_tau(&st);
+                m.process()
+                    .state_derivative(eta, nu, &tau, &self.effect_current(current))
+            }
+            Base::Vehicle(v) => {
+                let st = ModelState::new(*eta, *nu);
+                let tau = tau_thrust + self.extra_tau(&st);
+                let (mut ed, nd) =
+                    v.dynm
+                        .state_derivative(eta, nu, &tau, &self.effect_current(current));
+                if self.fx.trim_rad != 0.0 && !v.def.structure.active()[4] {
+                    let (s, c) = self.fx.trim_rad.sin_cos();
+                    ed[2] = nu[2] * c - nu[0] * s;
+                }
+                (ed, nd)
+            }
+            _ => {
+                let d = self.body_derivative(&ModelState::new(*eta, *nu), tau_thrust, current);
+                (d.eta, d.nu)
+            }
         }
-        let d = self.body_derivative(&ModelState::new(*eta, *nu), tau_thrust, current);
-        (d.eta, d.nu)
     }
 
-    /// State derivative for a thrust τ (without extra states).
+    /// State derivative for a τ of the thrusters and terms (without extra states).
     #[inline]
     pub fn body_derivative(
         &self,
@@ -802,15 +1359,51 @@ impl LabModel {
         tau_thrust: &Vector6,
         current: &CurrentSample,
     ) -> ModelState {
+        let Some(base) = self.pro4_dyn() else {
+            let (eta, nu) = self.eta_nu_derivative(&state.eta, &state.nu, tau_thrust, current);
+            return ModelState::new(eta, nu);
+        };
         let tau = tau_thrust + self.extra_tau(state);
-        let mut d = self
-            .base_dyn()
-            .dynamics(state, &tau, &self.effect_current(current));
+        let mut d = base.dynamics(state, &tau, &self.effect_current(current));
         if self.fx.trim_rad != 0.0 && self.kind != BaseKind::Model3 {
             let (s, c) = self.fx.trim_rad.sin_cos();
             d.eta[2] = state.nu[2] * c - state.nu[0] * s;
         }
         d
+    }
+
+    /// The quaternion-state derivative of a 6-DOF vehicle-file base for a τ of the
+    /// thrusters and terms (`None` for the other bases); `yaw_hint_rad` picks the heading
+    /// branch of the Euler angles the effects see.
+    #[inline]
+    pub fn quat_derivative(
+        &self,
+        x: &QuatState,
+        tau_thrust: &Vector6,
+        current: &CurrentSample,
+        yaw_hint_rad: f64,
+    ) -> Option<QuatState> {
+        let Base::Vehicle(v) = &self.base else {
+            return None;
+        };
+        let tau = if self.has_body_fx {
+            let (pose, nu) = unpack_quat_state(x);
+            let st = ModelState::new(pose.to_eta(yaw_hint_rad), nu);
+            tau_thrust + self.extra_tau(&st)
+        } else {
+            *tau_thrust
+        };
+        Some(
+            v.dynm
+                .process()
+                .quat_state_derivative(x, &tau, &self.effect_current(current)),
+        )
+    }
+
+    /// Whether the lab's simulator integrates this model's attitude with quaternions (a
+    /// 6-DOF vehicle file: tank vehicles roll over and pitch past 80°).
+    pub fn uses_quaternion(&self) -> bool {
+        matches!(&self.base, Base::Vehicle(v) if v.def.structure == Structure::Fossen6)
     }
 
     /// Whether any sensor effect is non-zero.
@@ -819,15 +1412,15 @@ impl LabModel {
     }
 
     /// The measured value of a channel: the state seen through the sensor effects.
-    /// `t_rel_s` counts from the start of the run; `prev_cmd` is the command acting just
-    /// before the sample (for thruster interference on the compass).
+    /// `t_rel_s` counts from the start of the run; `prev` holds the thruster commands (%)
+    /// acting just before the sample (for thruster interference on the compass).
     #[inline]
     pub fn sensor_value(
         &self,
         ch: Channel,
         state: &ModelState,
         t_rel_s: f64,
-        prev_cmd: &ThrustPct,
+        prev: &PerThruster,
     ) -> f64 {
         let v = ch.value(state);
         if !self.has_sensor_fx {
@@ -836,7 +1429,7 @@ impl LabModel {
         let f = &self.fx;
         match ch {
             Channel::Depth => v + f.depth_drift_mps * t_rel_s,
-            Channel::Heading => v + self.heading_offset_deg(state.eta[5], prev_cmd),
+            Channel::Heading => v + self.heading_offset_deg(state.eta[5], prev),
             Channel::Pitch => v + f.bias_pitch_deg,
             Channel::Roll => v + f.bias_roll_deg,
             _ => v,
@@ -844,20 +1437,23 @@ impl LabModel {
     }
 
     /// The compass reading's offset (deviation and thruster interference) at a heading
-    /// under the command acting just before the sample, deg.
+    /// under the thruster commands (%) acting just before the sample, deg.
     #[inline]
-    pub(crate) fn heading_offset_deg(&self, psi_rad: f64, cmd: &ThrustPct) -> f64 {
+    pub(crate) fn heading_offset_deg(&self, psi_rad: f64, prev: &PerThruster) -> f64 {
         let f = &self.fx;
         let (s, c) = psi_rad.sin_cos();
-        f.compass_dev_deg[0] * s
-            + f.compass_dev_deg[1] * c
-            + f.emi_deg[0] * (cmd.port * 0.01).abs()
-            + f.emi_deg[1] * (cmd.starboard * 0.01).abs()
-            + f.emi_deg[2] * (cmd.vertical * 0.01).abs()
+        let mut off = f.compass_dev_deg[0] * s + f.compass_dev_deg[1] * c;
+        for (i, u) in prev.iter().enumerate().take(self.n_thr) {
+            let e = f.emi_deg[self.thruster_group(i).index()];
+            if e != 0.0 {
+                off += e * (u * 0.01).abs();
+            }
+        }
+        off
     }
 
     /// Inverts the sensor model of a channel: the state value (deg or m) that reads `y`.
-    pub fn sensor_inverse(&self, ch: Channel, y: f64, t_rel_s: f64, prev_cmd: &ThrustPct) -> f64 {
+    pub fn sensor_inverse(&self, ch: Channel, y: f64, t_rel_s: f64, prev: &PerThruster) -> f64 {
         if !self.has_sensor_fx {
             return y;
         }
@@ -867,7 +1463,7 @@ impl LabModel {
             Channel::Heading => {
                 let mut psi = y;
                 for _ in 0..8 {
-                    psi = y - self.heading_offset_deg(psi.to_radians(), prev_cmd);
+                    psi = y - self.heading_offset_deg(psi.to_radians(), prev);
                 }
                 psi
             }
@@ -879,23 +1475,45 @@ impl LabModel {
 
     /// Whether the model predicts a channel.
     pub fn predicts_channel(&self, ch: Channel) -> bool {
-        self.base_dyn().predicts(ch)
+        match &self.base {
+            Base::Vehicle(v) => {
+                let a = v.def.structure.active();
+                match ch {
+                    Channel::Pitch | Channel::PitchRate => a[4],
+                    Channel::Roll | Channel::RollRate => a[3],
+                    Channel::Sway => a[1],
+                    _ => true,
+                }
+            }
+            _ => self.pro4_dyn().is_some_and(|m| m.predicts(ch)),
+        }
     }
 
     /// Keeps only the DOFs the base has.
     pub fn restrict_state(&self, mut s: ModelState) -> ModelState {
-        if self.kind != BaseKind::Model3 {
+        let a = self.nu_active();
+        for (i, on) in a.iter().enumerate() {
+            if !on {
+                s.nu[i] = 0.0;
+            }
+        }
+        if !a[3] {
             s.eta[3] = 0.0;
+        }
+        if !a[4] {
             s.eta[4] = 0.0;
-            s.nu[1] = 0.0;
-            s.nu[3] = 0.0;
-            s.nu[4] = 0.0;
         }
         s
     }
 
-    fn lag_on(&self) -> bool {
-        self.fx.lag_tau_s > 1e-4
+    /// A Pro 4 command as a command vector.
+    pub fn commands_of(cmd: &ThrustPct) -> Commands {
+        crate::data::commands_of_pct(cmd)
+    }
+
+    /// Extra states of the [`VehicleModel`] form: lags of the thrusters, then the filters.
+    fn n_lag_states(&self) -> usize {
+        if self.lag_on() { self.n_thr } else { 0 }
     }
 }
 
@@ -905,33 +1523,88 @@ impl VehicleModel for LabModel {
     }
 
     fn predicts(&self, ch: Channel) -> bool {
-        self.base_dyn().predicts(ch)
+        self.predicts_channel(ch)
     }
 
     fn thruster_forces(&self, cmd: &ThrustPct, state: &ModelState) -> ThrusterForces {
+        let c = Self::commands_of(cmd);
+        let mut targets = self.thruster_targets(&c);
         if self.lag_on() {
-            self.forces(&ThrustPct::new(
-                state.extra[0],
-                state.extra[1],
-                state.extra[2],
-            ))
-        } else {
-            self.forces(cmd)
+            for (i, t) in targets.iter_mut().enumerate().take(self.n_thr) {
+                *t = state.extra.get(i).copied().unwrap_or(*t);
+            }
+        }
+        let f = self.thrusts(&targets);
+        if self.kind == BaseKind::Vehicle {
+            // Group totals for the record (the exact τ comes from `derivative`).
+            let mut out = ThrusterForces::default();
+            for (i, fi) in f.iter().enumerate().take(self.n_thr) {
+                match self.thruster_group(i) {
+                    Thr::Port => out.port_n += fi,
+                    Thr::Starboard => out.starboard_n += fi,
+                    Thr::Vertical => out.vertical_n += fi,
+                    _ => {}
+                }
+            }
+            return out;
+        }
+        ThrusterForces {
+            port_n: f[0],
+            starboard_n: f[1],
+            vertical_n: f[2],
         }
     }
 
     fn generalized_force(&self, forces: &ThrusterForces, state: &ModelState) -> Vector6 {
-        self.thrust_tau(forces, state)
+        let mut f = [0.0; MAX_THRUSTERS];
+        f[0] = forces.port_n;
+        f[1] = forces.starboard_n;
+        f[2] = forces.vertical_n;
+        if self.kind == BaseKind::Vehicle {
+            return Vector6::zeros();
+        }
+        self.thrust_tau(&f, state)
     }
 
     fn dynamics(&self, state: &ModelState, tau: &Vector6, current: &CurrentSample) -> ModelState {
         self.body_derivative(state, tau, current)
     }
 
+    fn derivative(
+        &self,
+        time_s: f64,
+        state: &ModelState,
+        cmd: &ThrustPct,
+        env: &Environment<'_>,
+    ) -> ModelState {
+        let c = Self::commands_of(cmd);
+        let mut targets = self.thruster_targets(&c);
+        let nl = self.n_lag_states();
+        if nl > 0 {
+            for (i, t) in targets.iter_mut().enumerate().take(nl) {
+                *t = state.extra.get(i).copied().unwrap_or(*t);
+            }
+        }
+        let f = self.thrusts(&targets);
+        let signals = self.command_signals(&c);
+        let mut filt = [0.0; 2 * N_COMMANDS];
+        for (k, (ci, fk)) in self.filters.iter().enumerate() {
+            let slot = *ci as usize * FILTER_TAUS_S.len() + *fk as usize;
+            if let (Some(s), Some(x)) = (filt.get_mut(slot), state.extra.get(nl + k)) {
+                *s = *x;
+            }
+        }
+        let tau = self.thrust_tau(&f, state) + self.terms_tau(state, &signals, &filt);
+        let tau = env.total_tau(&tau, time_s, &state.eta, &state.nu);
+        let mut d = self.body_derivative(state, &tau, &env.current.at(time_s));
+        self.extra_dynamics(time_s, state, cmd, &mut d);
+        d
+    }
+
     fn outputs(&self, time_s: f64, state: &ModelState) -> ModelOutput {
-        let mut o = self.base_dyn().outputs(time_s, state);
+        let mut o = ModelOutput::from_state(time_s, state, |ch| self.predicts_channel(ch));
         if self.has_sensor_fx {
-            let z = ThrustPct::ZERO;
+            let z = [0.0; MAX_THRUSTERS];
             if o.depth_m.is_some() {
                 o.depth_m = Some(self.sensor_value(Channel::Depth, state, time_s, &z));
             }
@@ -949,21 +1622,36 @@ impl VehicleModel for LabModel {
     }
 
     fn n_extra_states(&self) -> usize {
-        if self.lag_on() { 3 } else { 0 }
+        (self.n_lag_states() + self.filters.len()).min(rov_dynamics::models::MAX_EXTRA_STATES)
     }
 
     fn extra_dynamics(&self, _t: f64, state: &ModelState, cmd: &ThrustPct, deriv: &mut ModelState) {
-        if self.lag_on() {
-            let tau = self.fx.lag_tau_s;
-            let u = [cmd.port, cmd.starboard, cmd.vertical];
-            for (i, ui) in u.iter().enumerate() {
-                deriv.extra[i] = (ui - state.extra[i]) / tau;
+        let c = Self::commands_of(cmd);
+        let nl = self.n_lag_states();
+        if nl > 0 {
+            let taus = self.lag_taus();
+            let targets = self.thruster_targets(&c);
+            for i in 0..nl.min(rov_dynamics::models::MAX_EXTRA_STATES) {
+                let tau = taus[i].max(1e-4);
+                deriv.extra[i] = (targets[i] - state.extra[i]) / tau;
+            }
+        }
+        let signals = self.command_signals(&c);
+        for (k, (ci, fk)) in self.filters.iter().enumerate() {
+            let slot = nl + k;
+            let tau = FILTER_TAUS_S.get(*fk as usize).copied().unwrap_or(1.0);
+            if let (Some(d), Some(x), Some(u)) = (
+                deriv.extra.get_mut(slot),
+                state.extra.get(slot),
+                signals.get(*ci as usize),
+            ) {
+                *d = (u - x) / tau;
             }
         }
     }
 
     fn initial_state(&self, ic: &InitialConditions) -> ModelState {
-        self.base_dyn().initial_state(ic)
+        self.restrict_state(ic.to_state())
     }
 
     fn clone_box(&self) -> Box<dyn VehicleModel> {

@@ -3,40 +3,14 @@
 //! parameters. Each has a key (used in JSON and in saved models), a unit, bounds, the
 //! value that turns its effect off, and a typical magnitude used to probe sensitivities.
 
+use rov_dynamics::models::Channel;
 use serde::Serialize;
 
 use crate::catalog::EffectId;
 
-/// A thruster.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Thr {
-    /// Port horizontal.
-    Port,
-    /// Starboard horizontal.
-    Starboard,
-    /// Vertical.
-    Vertical,
-}
-
-impl Thr {
-    /// All three, in command order.
-    pub const ALL: [Thr; 3] = [Thr::Port, Thr::Starboard, Thr::Vertical];
-
-    /// Index 0..3.
-    pub fn index(self) -> usize {
-        self as usize
-    }
-
-    /// Lower-case name.
-    pub fn name(self) -> &'static str {
-        match self {
-            Thr::Port => "port",
-            Thr::Starboard => "starboard",
-            Thr::Vertical => "vertical",
-        }
-    }
-}
+/// A thruster group (the Pro 4's port, starboard and vertical thrusters, or a vehicle
+/// file's groups): the unit of thrust calibration and of per-thruster effects.
+pub use rov_dynamics::models::vehicle::ThrusterGroup as Thr;
 
 /// A body degree of freedom (Fossen order).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]
@@ -57,6 +31,16 @@ pub enum Axis {
 }
 
 impl Axis {
+    /// All six, in Fossen order.
+    pub const ALL: [Axis; 6] = [
+        Axis::Surge,
+        Axis::Sway,
+        Axis::Heave,
+        Axis::Roll,
+        Axis::Pitch,
+        Axis::Yaw,
+    ];
+
     /// Index 0..6.
     pub fn index(self) -> usize {
         self as usize
@@ -80,7 +64,7 @@ impl Axis {
 }
 
 /// A scalar parameter of a lab model.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum Param {
     /// Scale of a thruster's linear thrust coefficient (calibration).
     ThrustLin(Thr),
@@ -142,6 +126,9 @@ pub enum Param {
     BiasRoll,
     /// Pitch reading offset, deg.
     BiasPitch,
+    /// Coefficient of discovered term i, normalised: N (or N m, `true` = rotational DOF)
+    /// at the term's typical regressor size (see [`crate::terms::Term`]).
+    TermCoef(u8, bool),
 }
 
 /// Static facts about a parameter.
@@ -191,6 +178,7 @@ impl Param {
             Param::Emi(t) => format!("compass_interference_{}_deg", t.name()),
             Param::BiasRoll => "roll_bias_deg".into(),
             Param::BiasPitch => "pitch_bias_deg".into(),
+            Param::TermCoef(i, _) => format!("term_{i}_coefficient"),
         }
     }
 
@@ -282,6 +270,8 @@ impl Param {
             Param::CompassSin | Param::CompassCos => m(-30.0, 30.0, 1.0, "deg"),
             Param::Emi(_) => m(-30.0, 30.0, 1.0, "deg"),
             Param::BiasRoll | Param::BiasPitch => m(-15.0, 15.0, 0.3, "deg"),
+            Param::TermCoef(_, false) => m(-200.0, 200.0, 0.05, "N"),
+            Param::TermCoef(_, true) => m(-20.0, 20.0, 0.005, "N m"),
         }
     }
 
@@ -339,7 +329,43 @@ impl Param {
             Param::CompassSin | Param::CompassCos => 3.0,
             Param::Emi(_) => 5.0,
             Param::BiasRoll | Param::BiasPitch => 1.0,
+            Param::TermCoef(_, r) => {
+                if r {
+                    0.05
+                } else {
+                    0.5
+                }
+            }
             _ => self.meta().scale,
+        }
+    }
+
+    /// The channels where this effect parameter's own signature lives (`None` for base
+    /// parameters and parameters that act on every thruster axis).
+    pub fn home_channels(self) -> Option<&'static [Channel]> {
+        use Channel::*;
+        Some(match self {
+            Param::ReverseRatio(Thr::Vertical) | Param::DragRatio(Axis::Heave) => &[Depth, Heave],
+            Param::ReverseRatio(_) => &[Heading, YawRate, Surge],
+            Param::TorqueV
+            | Param::DragRatio(Axis::Yaw)
+            | Param::CompassSin
+            | Param::CompassCos
+            | Param::Emi(_) => &[Heading, YawRate],
+            Param::TorqueH | Param::ArmYv | Param::CgY | Param::BiasRoll => &[Roll, RollRate],
+            Param::ArmZh | Param::ArmXv | Param::CgX | Param::BiasPitch => &[Pitch, PitchRate],
+            _ => return None,
+        })
+    }
+
+    /// Extra starting values tried for a parameter whose cost has kinks (a budget that
+    /// binds only above some demand, a dead zone, a lag): one start per value.
+    pub fn start_spread(self) -> &'static [f64] {
+        match self {
+            Param::PowerMax => &[0.3, 0.6, 1.0, 1.5],
+            Param::Deadzone => &[0.05, 0.12, 0.2],
+            Param::LagTau => &[0.1, 0.3],
+            _ => &[],
         }
     }
 
@@ -361,6 +387,39 @@ impl Param {
     }
 }
 
+/// How well a Pro 4 base parameter is known (parameters.md), for calibration priors and
+/// the verdict's parameter uncertainty: `Rel(σ/|value|)` or `Abs(σ)`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Documented {
+    /// Relative standard deviation.
+    Rel(f64),
+    /// Absolute standard deviation (parameter units).
+    Abs(f64),
+}
+
+/// The documented uncertainty of a Pro 4 base parameter (`None` for effect parameters,
+/// which have no prior: "off" is a hypothesis, not a belief).
+///
+/// | parameter | σ | basis (shared/reference/parameters.md) |
+/// |---|---|---|
+/// | thrust scales | 30 % | §1: full thrust "~17 N (range 15–20)" horizontal, "~10 N (8–12)" vertical; the 10 % linear share is an estimate |
+/// | damping | 50 % | §1.1–4: Pro III coefficients scaled by a frontal-area ratio, estimates |
+/// | added mass | 50 % | §3–4: fractions of the displaced mass for a box-like body, estimates |
+/// | CG height | 30 % | §4: 5.59 mm from CAD; ballast trim moves it |
+/// | CG x, y | 3 mm | §1: ballast trims the vehicle near level |
+/// | W − B | 0.5 N | §3: B between 59.8 and 60.3 N for W = 59.8 N |
+pub fn documented_pro4(p: Param) -> Option<Documented> {
+    Some(match p {
+        Param::ThrustLin(_) | Param::ThrustQuad(_) => Documented::Rel(0.3),
+        Param::DragLin(_) | Param::DragQuad(_) => Documented::Rel(0.5),
+        Param::AddedMass(_) => Documented::Rel(0.5),
+        Param::CgZ => Documented::Rel(0.3),
+        Param::CgX | Param::CgY => Documented::Abs(0.003),
+        Param::NetWeight => Documented::Abs(0.5),
+        _ => return None,
+    })
+}
+
 /// The parameters an effect adds (or, for a contained effect, refits). The list is the
 /// full set; [`crate::diagnose`] drops those the data cannot excite.
 pub fn effect_params(effect: EffectId) -> Vec<Param> {
@@ -380,13 +439,43 @@ pub fn effect_params(effect: EffectId) -> Vec<Param> {
         EffectId::Current => vec![Param::CurrentN, Param::CurrentE],
         EffectId::Tether => vec![Param::TetherN, Param::TetherE],
         EffectId::DepthSensorDrift => vec![Param::DepthDrift],
-        EffectId::CompassDeviation => vec![
-            Param::CompassSin,
-            Param::CompassCos,
-            Param::Emi(Thr::Port),
-            Param::Emi(Thr::Starboard),
-            Param::Emi(Thr::Vertical),
-        ],
+        EffectId::CompassDeviation => {
+            let mut v = vec![Param::CompassSin, Param::CompassCos];
+            v.extend(Thr::ALL.iter().map(|t| Param::Emi(*t)));
+            v
+        }
         EffectId::AttitudeBias => vec![Param::BiasRoll, Param::BiasPitch],
     }
+}
+
+/// Base parameters acting on the axes of some channels.
+pub fn axis_params_of(chans: &[Channel]) -> Vec<Param> {
+    let mut v = Vec::new();
+    for ch in chans {
+        let ps: &[Param] = match ch {
+            Channel::Depth | Channel::Heave => &[
+                Param::ThrustLin(Thr::Vertical),
+                Param::ThrustQuad(Thr::Vertical),
+                Param::DragLin(Axis::Heave),
+                Param::DragQuad(Axis::Heave),
+            ],
+            Channel::Heading | Channel::YawRate => &[
+                Param::ThrustLin(Thr::Port),
+                Param::ThrustQuad(Thr::Port),
+                Param::ThrustLin(Thr::Starboard),
+                Param::ThrustQuad(Thr::Starboard),
+                Param::DragLin(Axis::Yaw),
+                Param::DragQuad(Axis::Yaw),
+            ],
+            Channel::Pitch | Channel::PitchRate => &[Param::DragLin(Axis::Pitch), Param::CgZ],
+            Channel::Roll | Channel::RollRate => &[Param::DragLin(Axis::Roll), Param::CgZ],
+            _ => &[],
+        };
+        for p in ps {
+            if !v.contains(p) {
+                v.push(*p);
+            }
+        }
+    }
+    v
 }

@@ -19,13 +19,15 @@
 //! both tend to u as τ → 0, so the lag candidate can start from "off".
 
 use rov_dynamics::Vector6;
+use rov_dynamics::kinematics::{QuatPose, normalize_quat_state, quat_state, unpack_quat_state};
+use rov_dynamics::models::vehicle::MAX_THRUSTERS;
 use rov_dynamics::models::{Channel, ModelState};
 use rov_dynamics::process::CurrentSample;
-use rov_dynamics::thrusters::ThrustPct;
 
 use crate::LabError;
 use crate::data::{N_CHANNELS, Run, ch_index};
-use crate::model::LabModel;
+use crate::model::{LabModel, MAX_FILTERS, PerThruster};
+use crate::terms::FILTER_TAUS_S;
 
 /// Largest integration sub-step, s.
 pub const DT_MAX_S: f64 = 0.05;
@@ -54,12 +56,13 @@ pub fn compared_channels(model: &LabModel, run: &Run) -> Vec<Channel> {
         .collect()
 }
 
-fn prev_cmd(run: &Run, k: usize) -> ThrustPct {
-    if k == 0 {
-        run.cmd.first().copied().unwrap_or(ThrustPct::ZERO)
-    } else {
-        run.cmd[k - 1]
-    }
+/// The thruster commands (%) acting just before sample k (those of sample 0 at k = 0).
+pub(crate) fn prev_targets(model: &LabModel, run: &Run, k: usize) -> PerThruster {
+    let j = k.saturating_sub(1);
+    run.inputs
+        .get(j)
+        .map(|c| model.thruster_targets(c))
+        .unwrap_or([0.0; MAX_THRUSTERS])
 }
 
 /// Re-initialises the measured part of the state at sample k.
@@ -71,7 +74,7 @@ fn reinit(model: &LabModel, run: &Run, k: usize, state: &mut ModelState) {
     // local polynomial smoother reproduces exactly, so the smoothed reading is inverted
     // directly (and keeps the run-start estimate of [`Run::smooth`]).
     let fx = model.effect_values();
-    let compass = fx.compass_dev_deg != [0.0; 2] || fx.emi_deg != [0.0; 3];
+    let compass = fx.compass_dev_deg != [0.0; 2] || fx.emi_deg.iter().any(|e| *e != 0.0);
     let t_rel = run.t[k] - run.t[0];
     let sm = |ch: Channel| -> Option<f64> {
         let i = ch_index(ch);
@@ -82,7 +85,7 @@ fn reinit(model: &LabModel, run: &Run, k: usize, state: &mut ModelState) {
                 .as_ref()
                 .map(|v| v[k])
                 .filter(|x| x.is_finite())?;
-            return Some(model.sensor_inverse(ch, v, t_rel, &prev_cmd(run, k)));
+            return Some(model.sensor_inverse(ch, v, t_rel, &prev_targets(model, run, k)));
         }
         if compass && ch == Channel::Heading {
             let y = run.y[i].as_ref()?;
@@ -92,7 +95,14 @@ fn reinit(model: &LabModel, run: &Run, k: usize, state: &mut ModelState) {
                 // (as `Run::smooth` does for the raw readings).
                 let xs: Vec<f64> = (0..run.len())
                     .take_while(|j| run.t[*j] - run.t[0] <= start_win + 1e-9)
-                    .map(|j| model.sensor_inverse(ch, y[j], run.t[j] - run.t[0], &prev_cmd(run, j)))
+                    .map(|j| {
+                        model.sensor_inverse(
+                            ch,
+                            y[j],
+                            run.t[j] - run.t[0],
+                            &prev_targets(model, run, j),
+                        )
+                    })
                     .collect();
                 let ts = &run.t[..xs.len()];
                 if let Some((a, b, _)) = crate::data::line_fit(ts, &xs, start_win) {
@@ -103,7 +113,14 @@ fn reinit(model: &LabModel, run: &Run, k: usize, state: &mut ModelState) {
             let hi = (k + 13).min(run.len());
             let tt: Vec<f64> = run.t[lo..hi].to_vec();
             let xs: Vec<f64> = (lo..hi)
-                .map(|j| model.sensor_inverse(ch, y[j], run.t[j] - run.t[0], &prev_cmd(run, j)))
+                .map(|j| {
+                    model.sensor_inverse(
+                        ch,
+                        y[j],
+                        run.t[j] - run.t[0],
+                        &prev_targets(model, run, j),
+                    )
+                })
                 .collect();
             let v = crate::data::local_quadratic(&tt, &xs, k - lo, 0.3, 0.3).map(|(a, _)| a);
             return v.filter(|x| x.is_finite());
@@ -147,9 +164,35 @@ fn reinit(model: &LabModel, run: &Run, k: usize, state: &mut ModelState) {
     *state = model.restrict_state(*state);
 }
 
+/// Command signals and filter states held over one integration sub-step (the terms'
+/// inputs).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct TermDrive<'a> {
+    pub(crate) signals: &'a [f64],
+    pub(crate) filt: &'a [f64],
+}
+
 #[inline]
-fn rk4(model: &LabModel, x: &ModelState, tau: &Vector6, cur: &CurrentSample, h: f64) -> ModelState {
-    let f = |e: &Vector6, n: &Vector6| model.eta_nu_derivative(e, n, tau, cur);
+fn rk4(
+    model: &LabModel,
+    x: &ModelState,
+    tau: &Vector6,
+    drive: &TermDrive<'_>,
+    cur: &CurrentSample,
+    h: f64,
+) -> ModelState {
+    let has_terms = !model.terms().is_empty();
+    if model.uses_quaternion() {
+        return rk4_quat(model, x, tau, drive, cur, h);
+    }
+    let f = |e: &Vector6, n: &Vector6| {
+        if has_terms {
+            let t = tau + model.terms_tau(&ModelState::new(*e, *n), drive.signals, drive.filt);
+            model.eta_nu_derivative(e, n, &t, cur)
+        } else {
+            model.eta_nu_derivative(e, n, tau, cur)
+        }
+    };
     let (e1, n1) = f(&x.eta, &x.nu);
     let (e2, n2) = f(&(x.eta + e1 * (0.5 * h)), &(x.nu + n1 * (0.5 * h)));
     let (e3, n3) = f(&(x.eta + e2 * (0.5 * h)), &(x.nu + n2 * (0.5 * h)));
@@ -161,6 +204,43 @@ fn rk4(model: &LabModel, x: &ModelState, tau: &Vector6, cur: &CurrentSample, h: 
     )
 }
 
+/// RK4 on the quaternion 13-state (6-DOF vehicle files: valid at any attitude); the
+/// Euler angles come back on the branches nearest the previous ones.
+fn rk4_quat(
+    model: &LabModel,
+    x: &ModelState,
+    tau: &Vector6,
+    drive: &TermDrive<'_>,
+    cur: &CurrentSample,
+    h: f64,
+) -> ModelState {
+    let hint = x.eta[5];
+    let has_terms = !model.terms().is_empty();
+    let q0 = quat_state(&QuatPose::from_eta(&x.eta), &x.nu);
+    let f = |q: &rov_dynamics::kinematics::QuatState| {
+        let t = if has_terms {
+            let (pose, nu) = unpack_quat_state(q);
+            let st = ModelState::new(pose.to_eta(hint), nu);
+            tau + model.terms_tau(&st, drive.signals, drive.filt)
+        } else {
+            *tau
+        };
+        model
+            .quat_derivative(q, &t, cur, hint)
+            .unwrap_or_else(rov_dynamics::kinematics::QuatState::zeros)
+    };
+    let k1 = f(&q0);
+    let k2 = f(&(q0 + k1 * (0.5 * h)));
+    let k3 = f(&(q0 + k2 * (0.5 * h)));
+    let k4 = f(&(q0 + k3 * h));
+    let mut q = q0 + (k1 + k2 * 2.0 + k3 * 2.0 + k4) * (h / 6.0);
+    normalize_quat_state(&mut q);
+    let (pose, nu) = unpack_quat_state(&q);
+    let mut eta = pose.to_eta(hint);
+    eta[3] = rov_dynamics::kinematics::unwrap_near(eta[3], x.eta[3]);
+    ModelState::new(eta, nu)
+}
+
 static SIMULATIONS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
 
 /// Number of run simulations done by this process so far (for cost accounting).
@@ -168,15 +248,28 @@ pub fn simulation_count() -> usize {
     SIMULATIONS.load(std::sync::atomic::Ordering::Relaxed)
 }
 
-/// Simulates a run, re-initialising at the given sorted sample indices (0 is implied).
-pub fn simulate_run(model: &LabModel, run: &Run, resets: &[usize]) -> Result<Prediction, LabError> {
+/// The model's state at one sample, with what drives it from there on.
+#[derive(Debug, Clone, Copy)]
+pub struct SampleState {
+    /// The state (η, ν) at the sample (after any re-initialisation).
+    pub state: ModelState,
+    /// The lagged thruster commands at the sample, %.
+    pub lagged: PerThruster,
+    /// The filtered command signals of the terms at the sample (`filt[cmd * 2 + k]`).
+    pub filt: [f64; 2 * rov_dynamics::models::vehicle::N_COMMANDS],
+}
+
+/// Simulates a run, re-initialising at the given sorted sample indices (0 is implied),
+/// handing every sample's state to `on_sample` (the one loop behind [`simulate_run`]
+/// and [`simulate_states`]).
+fn simulate_core(
+    model: &LabModel,
+    run: &Run,
+    resets: &[usize],
+    mut on_sample: impl FnMut(usize, &SampleState),
+) -> Result<(), LabError> {
     SIMULATIONS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-    let chans = compared_channels(model, run);
     let n = run.len();
-    let mut out = Prediction::default();
-    for ch in &chans {
-        out.y[ch_index(*ch)] = Some(Vec::with_capacity(n));
-    }
     let mut state = ModelState::new(
         Vector6::zeros(),
         Vector6::new(
@@ -184,49 +277,86 @@ pub fn simulate_run(model: &LabModel, run: &Run, resets: &[usize]) -> Result<Pre
         ),
     );
     reinit(model, run, 0, &mut state);
-    let lag_tau = model.effect_values().lag_tau_s;
-    let c0 = run.cmd.first().copied().unwrap_or(ThrustPct::ZERO);
-    let mut lag = [c0.port, c0.starboard, c0.vertical];
+    let n_thr = model.n_thrusters().min(MAX_THRUSTERS);
+    let lag_taus = model.lag_taus();
+    let c0 = run
+        .inputs
+        .first()
+        .copied()
+        .unwrap_or([0.0; rov_dynamics::models::vehicle::N_COMMANDS]);
+    let mut lag = model.thruster_targets(&c0);
+    let filters = model.filters();
+    let sig0 = model.command_signals(&c0);
+    let mut filt_state = [0.0; MAX_FILTERS];
+    let mut filt = [0.0; 2 * rov_dynamics::models::vehicle::N_COMMANDS];
+    for (fs, (ci, fk)) in filt_state.iter_mut().zip(filters) {
+        *fs = sig0.get(*ci as usize).copied().unwrap_or(0.0);
+        if let Some(slot) = filt.get_mut(*ci as usize * FILTER_TAUS_S.len() + *fk as usize) {
+            *slot = *fs;
+        }
+    }
     let cur = CurrentSample::none();
-    let t0 = run.t[0];
     let mut next_reset = resets.iter().copied().filter(|&r| r > 0).peekable();
     for k in 0..n {
         if next_reset.peek() == Some(&k) {
             next_reset.next();
             reinit(model, run, k, &mut state);
         }
-        let pc = prev_cmd(run, k);
-        let t_rel = run.t[k] - t0;
-        for ch in &chans {
-            if let Some(v) = out.y[ch_index(*ch)].as_mut() {
-                v.push(model.sensor_value(*ch, &state, t_rel, &pc));
-            }
-        }
+        on_sample(
+            k,
+            &SampleState {
+                state,
+                lagged: lag,
+                filt,
+            },
+        );
         if k + 1 == n {
             break;
         }
         let dt = run.t[k + 1] - run.t[k];
         let nsub = ((dt / DT_MAX_S) - 1e-9).ceil().max(1.0) as usize;
         let h = dt / nsub as f64;
-        let u = run.cmd[k];
-        let target = [u.port, u.starboard, u.vertical];
+        let u = run.inputs[k];
+        let target = model.thruster_targets(&u);
+        let signals = model.command_signals(&u);
         for _ in 0..nsub {
-            let eff = if lag_tau > 0.0 {
-                let e = (-h / lag_tau).exp();
-                let mean_w = lag_tau / h * (1.0 - e);
-                let mut m = [0.0; 3];
-                for i in 0..3 {
-                    m[i] = target[i] + (lag[i] - target[i]) * mean_w;
+            let mut eff = target;
+            for i in 0..n_thr {
+                let tau = lag_taus[i];
+                if tau > 0.0 {
+                    let e = (-h / tau).exp();
+                    let mean_w = tau / h * (1.0 - e);
+                    eff[i] = target[i] + (lag[i] - target[i]) * mean_w;
                     lag[i] = target[i] + (lag[i] - target[i]) * e;
+                } else {
+                    lag[i] = target[i];
                 }
-                ThrustPct::new(m[0], m[1], m[2])
-            } else {
-                lag = target;
-                u
-            };
-            let f = model.forces(&eff);
+            }
+            // Filtered command signals of the terms: the mean over the sub-step, exact
+            // update on the held command (as the lag).
+            for (j, (ci, fk)) in filters.iter().enumerate() {
+                let tau = FILTER_TAUS_S.get(*fk as usize).copied().unwrap_or(1.0);
+                let target = signals.get(*ci as usize).copied().unwrap_or(0.0);
+                let e = (-h / tau).exp();
+                let mean = target + (filt_state[j] - target) * tau / h * (1.0 - e);
+                filt_state[j] = target + (filt_state[j] - target) * e;
+                if let Some(slot) = filt.get_mut(*ci as usize * FILTER_TAUS_S.len() + *fk as usize)
+                {
+                    *slot = mean;
+                }
+            }
+            let f = model.thrusts(&eff);
             let tau = model.thrust_tau(&f, &state);
-            state = rk4(model, &state, &tau, &cur, h);
+            let drive = TermDrive {
+                signals: &signals,
+                filt: &filt,
+            };
+            state = rk4(model, &state, &tau, &drive, &cur, h);
+        }
+        for (j, (ci, fk)) in filters.iter().enumerate() {
+            if let Some(slot) = filt.get_mut(*ci as usize * FILTER_TAUS_S.len() + *fk as usize) {
+                *slot = filt_state[j];
+            }
         }
         let finite = state
             .eta
@@ -245,6 +375,38 @@ pub fn simulate_run(model: &LabModel, run: &Run, resets: &[usize]) -> Result<Pre
             });
         }
     }
+    Ok(())
+}
+
+/// Simulates a run, re-initialising at the given sorted sample indices (0 is implied).
+pub fn simulate_run(model: &LabModel, run: &Run, resets: &[usize]) -> Result<Prediction, LabError> {
+    let chans = compared_channels(model, run);
+    let n = run.len();
+    let mut out = Prediction::default();
+    for ch in &chans {
+        out.y[ch_index(*ch)] = Some(Vec::with_capacity(n));
+    }
+    let t0 = run.t.first().copied().unwrap_or(0.0);
+    simulate_core(model, run, resets, |k, s| {
+        let pc = prev_targets(model, run, k);
+        let t_rel = run.t[k] - t0;
+        for ch in &chans {
+            if let Some(v) = out.y[ch_index(*ch)].as_mut() {
+                v.push(model.sensor_value(*ch, &s.state, t_rel, &pc));
+            }
+        }
+    })?;
+    Ok(out)
+}
+
+/// Simulates a run like [`simulate_run`] and returns the state at every sample.
+pub fn simulate_states(
+    model: &LabModel,
+    run: &Run,
+    resets: &[usize],
+) -> Result<Vec<SampleState>, LabError> {
+    let mut out = Vec::with_capacity(run.len());
+    simulate_core(model, run, resets, |_, s| out.push(*s))?;
     Ok(out)
 }
 

@@ -1,6 +1,6 @@
 //! The real BlueROV2 tank data (shared/real_data/bluerov2_saabmarine_mex): converted to
-//! the measurement format and run through compare and diagnose end to end. Only sanity is
-//! asserted (finite metrics, no panic); what the lab finds is reported in the notes.
+//! the measurement format and run through compare and diagnose end to end: finite
+//! metrics, and on model3 (the Pro 4's three thrusters) the verdict "unexplained".
 
 use std::path::PathBuf;
 
@@ -9,9 +9,13 @@ use rov_lab::diagnose::{DiagnoseOptions, diagnose};
 use rov_lab::lab::compare;
 use rov_lab::{BaseKind, LabModel, Run};
 
+/// shared/real_data/bluerov2_saabmarine_mex: `../shared` from the project root, or under
+/// `$TOPSIDE_SHARED_DIR` when the checkout lives elsewhere (a worktree).
 fn data_dir() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../../../shared/real_data/bluerov2_saabmarine_mex")
+    let shared = std::env::var_os("TOPSIDE_SHARED_DIR")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared"));
+    shared.join("real_data/bluerov2_saabmarine_mex")
 }
 
 fn load(name: &str) -> Option<Run> {
@@ -57,6 +61,18 @@ fn bluerov_runs_through_compare_and_diagnose() {
         assert!(b.rmse.is_finite() && b.rmse_shooting.is_finite(), "{ch}");
     }
     eprintln!("BlueROV2 (model3): {}", d.summary);
+    // A BlueROV2 squeezed onto the Pro 4's three thrusters is not a Pro 4: the lab must
+    // not call the model adequate, and must say where it fails.
+    assert_eq!(
+        d.verdict,
+        rov_lab::verdict::Verdict::Unexplained,
+        "{}",
+        d.summary
+    );
+    assert!(!d.unexplained.is_empty());
+    for u in &d.unexplained {
+        assert!(u.ratio > 1.0 && !u.description.is_empty(), "{u:?}");
+    }
     for (ch, b) in &d.baseline {
         eprintln!(
             "  baseline {ch}: fit {:?} % RMSE {:.4} (free run fit {:?} %, RMSE {:.4}), noise {:.4}",

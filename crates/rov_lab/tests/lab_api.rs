@@ -178,7 +178,27 @@ fn diagnose_json_has_the_documented_shape() {
         "model1 does not predict pitch: {ch}"
     );
     let f = j["findings"].as_array().unwrap();
-    assert_eq!(f.len(), 17, "every catalog effect appears once");
+    assert_eq!(
+        f.iter().filter(|x| x["kind"] == "catalog").count(),
+        17,
+        "every catalog effect appears once"
+    );
+    // Discovered terms (if the catalog left a channel inconsistent) carry their formula.
+    for x in f.iter().filter(|x| x["kind"] == "discovered") {
+        assert!(x["term"].is_string() && x["resembles"].is_string(), "{x}");
+        assert!(x["effect"].as_str().unwrap().starts_with("term:"), "{x}");
+    }
+    // The verdict and its test.
+    assert!(
+        ["adequate", "explained", "unexplained"].contains(&j["verdict"].as_str().unwrap()),
+        "{}",
+        j["verdict"]
+    );
+    assert!(j["unexplained"].is_array() && j["data"].is_array());
+    for c in j["consistency"].as_array().unwrap() {
+        assert!(c["channel"].is_string() && c["consistent"].is_boolean());
+        assert!(c["ratio"].is_number() && c["n_eff"].is_number());
+    }
     for x in f {
         assert!(x["effect"].is_string() && x["significant"].is_boolean());
         assert!(x["channels"].is_array() && x["params"].is_object());
@@ -205,4 +225,56 @@ fn diagnose_json_has_the_documented_shape() {
     let cur = f.iter().find(|x| x["effect"] == "current").unwrap();
     assert_eq!(cur["status"], "not_testable");
     let _ = Channel::Depth;
+}
+
+/// Issue 13, part 5: the diagnosis's fit of an effect and `lab add` of the same effect on
+/// the same data are one fit path, so they reach the same optimum (parameters and held-out
+/// error).
+#[test]
+fn diagnose_and_add_reach_the_same_optimum() {
+    let (tr, va) = runs(31, &[Hidden::Lag(0.25)], 240.0, 120.0);
+    let m3 = LabModel::default_base(BaseKind::Model3).unwrap();
+    let d = diagnose(
+        &m3,
+        "model3",
+        std::slice::from_ref(&tr),
+        std::slice::from_ref(&va),
+        &DiagnoseOptions {
+            threads: 2,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    assert_eq!(
+        d.accepted.first(),
+        Some(&EffectId::ThrusterLag),
+        "{}",
+        d.summary
+    );
+    let fd = d
+        .findings
+        .iter()
+        .find(|f| f.effect == "thruster-lag")
+        .unwrap();
+    let r = add(&m3, "model3", &[EffectId::ThrusterLag], &[tr], &[va], 2).unwrap();
+    let fa = r
+        .findings
+        .iter()
+        .find(|f| f.effect == "thruster-lag")
+        .unwrap();
+    assert!(!fd.params.is_empty());
+    for (k, pd) in &fd.params {
+        let pa = &fa.params[k];
+        let tol = 1e-3 * pd.value.abs().max(1e-6) + 0.05 * pd.std.unwrap_or(0.0);
+        assert!(
+            (pd.value - pa.value).abs() <= tol,
+            "{k}: diagnose {} vs add {}",
+            pd.value,
+            pa.value
+        );
+    }
+    for (ch, red) in &fd.validation_rmse_reduction_pct_shooting {
+        let ra = fa.validation_rmse_reduction_pct_shooting[ch];
+        assert!((red - ra).abs() < 0.5, "{ch}: {red} vs {ra}");
+    }
 }

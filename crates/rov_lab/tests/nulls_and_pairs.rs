@@ -36,7 +36,21 @@ fn null_seeds(seeds: std::ops::Range<u64>) {
             d.accepted,
             d.findings[0].explanation
         );
-        assert!(d.findings.iter().all(|f| !f.significant));
+        assert!(
+            d.findings.iter().all(|f| !f.significant),
+            "seed {seed}: {:?}",
+            d.findings
+                .iter()
+                .filter(|f| f.significant)
+                .map(|f| format!("{}: {}", f.effect, f.explanation))
+                .collect::<Vec<_>>()
+        );
+        // Nor a term from outside the catalog.
+        assert!(
+            d.accepted_terms.is_empty(),
+            "seed {seed}: effect-free data gained terms {:?}",
+            d.accepted_terms
+        );
         assert!(d.summary.starts_with("nothing significant"));
     }
 }

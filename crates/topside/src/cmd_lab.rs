@@ -3,13 +3,18 @@
 //!
 //! * `topside lab compare --model M --data F.csv [--data G.csv ...] [--effects ID,ID] [--json] [--plots DIR]`
 //! * `topside lab diagnose --model M --data TRAIN.csv [--data ...] --validate VAL.csv [--json] [--plots DIR]`
-//! * `topside lab add --model M --effects ID[,ID...] --data TRAIN.csv --validate VAL.csv [--json] [--save OUT.toml] [--plots DIR]`
+//! * `topside lab add --model M [--effects ID[,ID...]] [--terms term:DOF:SLUG[,...]] --data TRAIN.csv --validate VAL.csv [--json] [--save OUT.toml] [--plots DIR]`
 //! * `topside lab effects`, `topside lab models`
 //!
-//! M is `model1`, `model2`, `model3` or a saved extended-model TOML. Data files are
-//! measurement CSVs, MCAP sessions (`.mcap`, through `rov_session`), or the BlueROV2 tank
-//! CSVs of shared/real_data (recognised by their `ch5_surge` column and converted).
-//! `--json` prints one JSON document on stdout; the text report goes to stdout otherwise.
+//! M is `model1`, `model2`, `model3`, a vehicle definition file (`config/vehicles/*.toml`)
+//! or a saved extended-model TOML. Data files are measurement CSVs, MCAP sessions
+//! (`.mcap`, through `rov_session`), or the BlueROV2 tank CSVs of shared/real_data
+//! (recognised by their `ch5_surge` column; their six body-axis demands become command
+//! channels a vehicle file mixes, and a Pro 4 view feeds the Pro 4 models). Every file
+//! goes through the real-log treatment of [`rov_lab::ingest`] (time stamps, gaps,
+//! spikes, closed loop), reported in words. `--json` prints one JSON document on stdout
+//! and nothing else (notes go into the JSON or to stderr); the text report goes to
+//! stdout otherwise.
 
 use std::fs;
 use std::path::{Path, PathBuf};
@@ -19,14 +24,38 @@ use anyhow::Context;
 use clap::{Args, Subcommand};
 use rov_lab::catalog::EffectId;
 use rov_lab::diagnose::{DiagnoseOptions, Status, diagnose};
-use rov_lab::lab::{AddReport, ChannelSummary, CompareReport, add, compare, diagnose_json};
+use rov_lab::lab::{
+    AddReport, ChannelSummary, CompareReport, add_with_terms, compare, diagnose_json,
+};
 use rov_lab::model::{BaseKind, LabModel};
 use rov_lab::persist::{load_lab_model, save_extended_model};
 use rov_lab::plots::{comparison_png, error_fall_png, failure_pngs, residual_png};
 use rov_lab::{Run, parse_effect_list};
 
+/// How `diagnose` decides its verdict (shown by `topside lab --help`; the full statement
+/// is in `rov_lab::verdict`).
+const VERDICT_HELP: &str = "\
+Verdict of `lab diagnose` (\"verdict\" in --json): adequate | explained | unexplained.
+For every channel the model predicts and the held-out runs measure, the multiple-shooting
+residual e (spikes excluded) is tested against H0 \"the model is right\":
+  1. Expected level s0^2 = sigma_n^2 + sigma_theta^2: the channel's noise floor plus the
+     prediction variance the parameter uncertainty allows (posterior of the calibrated
+     parameters and the documented priors of the fixed ones).
+  2. Level test: N_eff*MS/s0^2 ~ chi^2(N_eff), N_eff the Bartlett effective sample size;
+     consistent when MS/s0^2 <= chi^2_{1-a/m}(N_eff)/N_eff, a = 0.01 Bonferroni over the m
+     tested channels.
+  3. Structure: a channel above that level is still consistent only if its residual is
+     white (<= 5 % of autocorrelation lags outside the 99 % band) and correlates with no
+     input or state (cross-correlation against the Bartlett bound).
+  4. Distance: an RMSE above 3 noise floors is never consistent.
+adequate = every channel of the calibrated base consistent, no finding needed;
+explained = the accepted findings (catalog effects, discovered terms) make every channel
+consistent; unexplained = some channel still is not: the \"unexplained\" array gives its
+RMSE, noise, ratio, where the misfit concentrates and what it correlates with.";
+
 /// Arguments of `topside lab`.
 #[derive(Debug, Args)]
+#[command(after_long_help = VERDICT_HELP)]
 pub struct LabArgs {
     #[command(subcommand)]
     command: LabCommand,
@@ -36,9 +65,12 @@ pub struct LabArgs {
 enum LabCommand {
     /// Compare a model (optionally with effects) with measured runs in three error views.
     Compare(CompareArgs),
-    /// Calibrate the base, then rank the catalog effects by held-out evidence.
+    /// Calibrate the base, rank the catalog effects by held-out evidence, search terms
+    /// outside the catalog, and give a verdict (see `topside lab --help`).
+    #[command(after_long_help = VERDICT_HELP)]
     Diagnose(DiagnoseArgs),
-    /// Add effects to a model, refit, and show the held-out error before and after.
+    /// Add effects and discovered terms to a model, refit, and show the held-out error
+    /// before and after.
     Add(AddArgs),
     /// List the 17 catalog effects.
     Effects(ListArgs),
@@ -49,7 +81,7 @@ enum LabCommand {
 /// `topside lab compare`.
 #[derive(Debug, Args)]
 pub struct CompareArgs {
-    /// model1, model2, model3 or a saved extended-model TOML.
+    /// model1, model2, model3, a vehicle definition or a saved extended-model TOML.
     #[arg(long)]
     pub model: String,
     /// Measured runs (CSV or MCAP); repeat for several.
@@ -69,7 +101,7 @@ pub struct CompareArgs {
 /// `topside lab diagnose`.
 #[derive(Debug, Args)]
 pub struct DiagnoseArgs {
-    /// model1, model2, model3 or a saved extended-model TOML.
+    /// model1, model2, model3, a vehicle definition or a saved extended-model TOML.
     #[arg(long)]
     pub model: String,
     /// Training runs; repeat for several.
@@ -89,12 +121,16 @@ pub struct DiagnoseArgs {
 /// `topside lab add`.
 #[derive(Debug, Args)]
 pub struct AddArgs {
-    /// model1, model2, model3 or a saved extended-model TOML.
+    /// model1, model2, model3, a vehicle definition or a saved extended-model TOML.
     #[arg(long)]
     pub model: String,
     /// Effects to add, comma-separated IDs, in order.
-    #[arg(long, required = true)]
-    pub effects: String,
+    #[arg(long, required_unless_present = "terms")]
+    pub effects: Option<String>,
+    /// Discovered terms to add after the effects, comma-separated ids as `lab diagnose`
+    /// reports them (for example `term:yaw:v_absr`).
+    #[arg(long)]
+    pub terms: Option<String>,
     /// Training runs; repeat for several.
     #[arg(long = "data", required = true)]
     pub data: Vec<PathBuf>,
@@ -133,8 +169,23 @@ pub fn load_model_arg(arg: &str) -> anyhow::Result<LabModel> {
     Ok(load_lab_model(&text, arg)?)
 }
 
-/// Loads one run: measurement CSV, MCAP session, or BlueROV2 tank CSV.
+/// Loads one log as a single continuous run (for commands that need one, such as
+/// `sim run`): a log that gaps split into several pieces is refused with their count.
 pub fn load_run(path: &Path) -> anyhow::Result<Run> {
+    let mut runs = load_log(path)?;
+    if runs.len() != 1 {
+        anyhow::bail!(
+            "{}: gaps split the log into {} pieces; this command needs one continuous run",
+            path.display(),
+            runs.len()
+        );
+    }
+    Ok(runs.remove(0))
+}
+
+/// Loads one log: measurement CSV, MCAP session, or BlueROV2 tank CSV, as runs (a gap
+/// splits a log into several), with the real-log treatment applied and recorded.
+pub fn load_log(path: &Path) -> anyhow::Result<Vec<Run>> {
     let label = path
         .file_name()
         .map(|n| n.to_string_lossy().to_string())
@@ -150,26 +201,18 @@ pub fn load_run(path: &Path) -> anyhow::Result<Run> {
         for w in warnings {
             eprintln!("warning: {label}: {w}");
         }
-        return Ok(Run::from_series(&series, &label)?);
+        return Ok(rov_lab::ingest::series_runs(&series, &label, None)?);
     }
     let text = fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
-    let first = text.lines().next().unwrap_or("");
-    if first.split(',').any(|c| c.trim() == "ch5_surge") {
-        let series = rov_lab::bluerov::bluerov_to_series(&text, &label)?;
-        eprintln!(
-            "note: {label}: BlueROV2 tank data converted (surge/yaw demands → port/starboard, heave → vertical; see rov_lab::bluerov)"
-        );
-        return Ok(Run::from_series(&series, &label)?);
-    }
-    let series = rov_types::MeasurementSeries::parse_csv(&text, &label)?;
-    for w in &series.warnings {
-        eprintln!("warning: {w}");
-    }
-    Ok(Run::from_series(&series, &label)?)
+    Ok(rov_lab::ingest::runs_from_text(&text, &label)?)
 }
 
 fn load_runs(paths: &[PathBuf]) -> anyhow::Result<Vec<Run>> {
-    paths.iter().map(|p| load_run(p)).collect()
+    let mut out = Vec::new();
+    for p in paths {
+        out.extend(load_log(p)?);
+    }
+    Ok(out)
 }
 
 fn write_pngs(dir: &Path, pngs: Vec<(String, Vec<u8>)>) -> anyhow::Result<()> {
@@ -342,6 +385,7 @@ fn run_diagnose(a: DiagnoseArgs) -> anyhow::Result<ExitCode> {
         return Ok(ExitCode::SUCCESS);
     }
     println!("model {} — {}", j.model, j.summary);
+    print_verdict(&j);
     print_summary_table(
         "baseline (calibrated base on the held-out data; fit/RMSE with multiple shooting, fr = free run):",
         &j.baseline.channels,
@@ -382,12 +426,46 @@ fn run_diagnose(a: DiagnoseArgs) -> anyhow::Result<ExitCode> {
             }
         );
         println!("      {}", f.explanation);
+        for c in &f.conflicts {
+            println!("      conflict: {c}");
+        }
     }
     Ok(ExitCode::SUCCESS)
 }
 
+/// The verdict and what was done to the data, in words (text report of `diagnose`).
+fn print_verdict(j: &rov_lab::lab::DiagnoseJson) {
+    println!(
+        "verdict: {} (held-out residuals tested against noise floor and parameter uncertainty; see `topside lab --help`)",
+        j.verdict.name()
+    );
+    for u in &j.unexplained {
+        println!("  unexplained: {}", u.description);
+    }
+    for d in &j.data {
+        println!("data: {d}");
+    }
+    if j.closed_loop {
+        println!(
+            "data: recorded in closed loop (inputs computed from the measured outputs); judged on multiple shooting"
+        );
+    }
+    for n in &j.calibration_notes {
+        println!("calibration: {n}");
+    }
+    for n in &j.search_notes {
+        println!("term search: {n}");
+    }
+}
+
 fn print_add(r: &AddReport) {
     println!("model {} + {}", r.model, r.effects.join(" + "));
+    for d in &r.data {
+        println!("data: {d}");
+    }
+    for n in &r.notes {
+        println!("note: {n}");
+    }
     if !r.refitted_contained.is_empty() {
         println!(
             "already contained (refitted, not added): {}",
@@ -418,10 +496,20 @@ fn print_add(r: &AddReport) {
 
 fn run_add(a: AddArgs) -> anyhow::Result<ExitCode> {
     let model = load_model_arg(&a.model)?;
-    let effects = parse_effect_list(&a.effects)?;
+    let effects = match &a.effects {
+        Some(s) => parse_effect_list(s)?,
+        None => Vec::new(),
+    };
+    let terms: Vec<String> = a
+        .terms
+        .iter()
+        .flat_map(|s| s.split(','))
+        .map(|t| t.trim().to_string())
+        .filter(|t| !t.is_empty())
+        .collect();
     let train = load_runs(&a.data)?;
     let val = load_runs(&a.validate)?;
-    let r = add(&model, &a.model, &effects, &train, &val, THREADS)?;
+    let r = add_with_terms(&model, &a.model, &effects, &terms, &train, &val, THREADS)?;
     if let Some(path) = &a.save
         && let Some(m) = &r.model_fitted
     {

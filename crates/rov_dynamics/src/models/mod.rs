@@ -38,6 +38,7 @@ pub mod model1;
 pub mod model2;
 pub mod model3;
 mod param_util;
+pub mod vehicle;
 
 use std::any::Any;
 use std::fmt;

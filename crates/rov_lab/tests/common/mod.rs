@@ -57,6 +57,22 @@ pub enum Hidden {
     CompassDev(f64),
     /// Pitch reading bias, deg.
     PitchBias(f64),
+    /// Outside the catalog: heave force k·r² (N per (rad/s)²; a yaw–heave coupling).
+    HeaveYawSq(f64),
+    /// Outside the catalog: yaw moment −k·r·|u| (N m per rad/s per m/s; yaw damping that
+    /// grows with forward speed).
+    YawSpeedDamp(f64),
+    /// Outside the catalog: heave force k·u·|u| (N per (m/s)²; a lift growing with the
+    /// square of the surge speed).
+    HeaveLift(f64),
+}
+
+/// Out-of-catalog generalised forces of the truth (see [`Hidden`]).
+#[derive(Debug, Clone, Copy, Default)]
+struct OutsideTerms {
+    heave_rr: f64,
+    yaw_r_absu: f64,
+    heave_u_absu: f64,
 }
 
 #[derive(Debug, Clone)]
@@ -68,6 +84,7 @@ struct TruthModel {
     torque_v: f64,
     drag_heave_ratio: f64,
     drag_heave_q: f64,
+    outside: OutsideTerms,
 }
 
 impl TruthModel {
@@ -123,6 +140,10 @@ impl VehicleModel for TruthModel {
         if self.drag_heave_ratio != 1.0 && w < 0.0 {
             t[2] += (self.drag_heave_ratio - 1.0) * self.drag_heave_q * w * w;
         }
+        let (u, r) = (state.nu[0], state.nu[5]);
+        let o = &self.outside;
+        t[2] += o.heave_rr * r * r + o.heave_u_absu * u * u.abs();
+        t[5] -= o.yaw_r_absu * r * u.abs();
         self.base.dynamics(state, &t, current)
     }
     fn n_extra_states(&self) -> usize {
@@ -196,6 +217,7 @@ fn truth_model(seed: u64, frac: f64, hidden: &[Hidden]) -> (TruthModel, Option<T
     let mut torque_v = 0.0;
     let mut drag_ratio = 1.0;
     let mut tether = None;
+    let mut outside = OutsideTerms::default();
     for h in hidden {
         match *h {
             Hidden::AsymVertical(r) => {
@@ -239,6 +261,9 @@ fn truth_model(seed: u64, frac: f64, hidden: &[Hidden]) -> (TruthModel, Option<T
                 p.process.hydrostatics.cg_from_co_m.x = x;
             }
             Hidden::DragHeave(r) => drag_ratio = r,
+            Hidden::HeaveYawSq(k) => outside.heave_rr = k,
+            Hidden::YawSpeedDamp(k) => outside.yaw_r_absu = k,
+            Hidden::HeaveLift(k) => outside.heave_u_absu = k,
             Hidden::Tether(f, az_deg) => {
                 let a = az_deg.to_radians();
                 tether = Some(TetherForce {
@@ -260,6 +285,7 @@ fn truth_model(seed: u64, frac: f64, hidden: &[Hidden]) -> (TruthModel, Option<T
             torque_v,
             drag_heave_ratio: drag_ratio,
             drag_heave_q,
+            outside,
         },
         tether,
     )
@@ -408,15 +434,14 @@ pub fn truth_summary(seed: u64, frac: f64) -> String {
     )
 }
 
-/// A measured run of the truth with hidden effects.
-pub fn truth_run(
+/// The simulator of the truth with hidden effects (the sensor-side ones excepted: they
+/// are applied to the recorded series) and the Pro 4's sensor noise, at rest at 5 m.
+fn truth_simulator(
     seed: u64,
     noise_seed: u64,
     hidden: &[Hidden],
-    schedule: &Schedule,
     frac: f64,
-    sample_period: f64,
-) -> MeasurementSeries {
+) -> (Simulator, rov_dynamics::sensors::SensorConfig) {
     let (model, tether) = truth_model(seed, frac, hidden);
     let mut cfg = SimConfig::with_model(Box::new(model));
     cfg.sensors.pressure.noise_std_mbar = 1.5;
@@ -429,6 +454,19 @@ pub fn truth_run(
     if let Some(t) = tether {
         sim.set_external_force(Some(Box::new(t)));
     }
+    (sim, sensors)
+}
+
+/// A measured run of the truth with hidden effects.
+pub fn truth_run(
+    seed: u64,
+    noise_seed: u64,
+    hidden: &[Hidden],
+    schedule: &Schedule,
+    frac: f64,
+    sample_period: f64,
+) -> MeasurementSeries {
+    let (mut sim, sensors) = truth_simulator(seed, noise_seed, hidden, frac);
     let s = run_schedule_on(&mut sim, &sensors, schedule, sample_period).unwrap();
     sensorize(s, hidden)
 }
@@ -532,4 +570,105 @@ pub fn planar_trim_case(
     let train_s = paper_schedule(seed, train_len, &[30.0, 60.0, 90.0], 12.0, 8.0);
     let val_s = paper_schedule(seed + 1000, val_len, &[45.0, 75.0, 30.0, 90.0], 10.0, 8.0);
     (run(&train_s, seed), run(&val_s, seed + 5000))
+}
+
+/// A closed-loop dive of the truth, as the station records them: the station's own depth
+/// and heading autopilot (`rov_control::Controller`, default configuration) holds
+/// set-points that step every 20 s (depth ±1.5 m, heading ±40°) from the *measured* depth,
+/// heading and yaw rate, while the pilot's surge stick steps too; the sample interval
+/// jitters between 40 and 60 ms (a logger on a busy laptop), so the rows are not
+/// uniformly spaced. The record is what the autopilot saw: the simulator's sensors,
+/// without the sensor-side hidden effects and the integer quantisation of
+/// [`truth_run`]'s records.
+pub fn closed_loop_run(
+    seed: u64,
+    noise_seed: u64,
+    hidden: &[Hidden],
+    duration_s: f64,
+) -> MeasurementSeries {
+    use rov_control::{ControlConfig, Controller, Measurements, ModeCommand, ModelSet, PilotInput};
+    let (mut sim, sensors) = truth_simulator(seed, noise_seed, hidden, 0.2);
+    let mut ctl =
+        Controller::new(ControlConfig::default(), ModelSet::load_default().unwrap()).unwrap();
+    let mut rng = StdRng::seed_from_u64(seed ^ 0xC105_ED10);
+    let mut series = MeasurementSeries {
+        present: [true; 8],
+        ..Default::default()
+    };
+    let (mut depth_sp, mut heading_sp) = (5.0f64, 30.0f64);
+    let mut pilot = PilotInput::default();
+    let mut next_change = 0.0;
+    let mut first = true;
+    while sim.time_s() < duration_s {
+        let t = sim.time_s();
+        let r = sim.sensors();
+        let meas = Measurements {
+            depth_m: Some(r.depth_from_pressure_m),
+            heading_deg: Some(r.heading_rad.to_degrees()),
+            yaw_rate_rad_s: Some(r.gyro_body_radps.z),
+        };
+        if first {
+            ctl.tick(t, &meas, &pilot);
+            first = false;
+        }
+        if t >= next_change {
+            depth_sp = (depth_sp + rng.random_range(-1.5..1.5)).clamp(2.0, 8.0);
+            heading_sp = (heading_sp + rng.random_range(-40.0..40.0)).rem_euclid(360.0);
+            pilot.surge = [0.0, 0.15, 0.3, -0.15][rng.random_range(0..4usize)];
+            ctl.command(ModeCommand::SetDepth { depth_m: depth_sp })
+                .unwrap();
+            ctl.command(ModeCommand::SetHeading {
+                heading_deg: heading_sp,
+            })
+            .unwrap();
+            next_change += 20.0;
+        }
+        let out = ctl.tick(t, &meas, &pilot);
+        let c = out.command;
+        let cmd = ThrustPct::new(c.port_pct(), c.starboard_pct(), c.vertical_pct());
+        let mut row = rov_sim::series::row_from_readings(&r, &cmd, &sensors);
+        row.time_s = t;
+        series.rows.push(row);
+        sim.set_command(cmd).unwrap();
+        for _ in 0..rng.random_range(4..=6u32) {
+            sim.step().unwrap();
+        }
+    }
+    series
+}
+
+/// Messes a clean log up the way real logs are: `spikes` isolated outliers per listed
+/// channel (depth +1.5 m, heading +40°), and the rows of `gap` = (start, length) s removed.
+pub fn mess_up(
+    series: &mut MeasurementSeries,
+    seed: u64,
+    depth_spikes: usize,
+    heading_spikes: usize,
+    gap: Option<(f64, f64)>,
+) {
+    let mut rng = StdRng::seed_from_u64(seed ^ 0x005B_1CE5);
+    let n = series.rows.len();
+    let mut used: Vec<usize> = Vec::new();
+    let mut pick = |rng: &mut StdRng| -> usize {
+        loop {
+            let k = rng.random_range(50..n.saturating_sub(50).max(51));
+            if used.iter().all(|u| u.abs_diff(k) > 20) {
+                used.push(k);
+                return k;
+            }
+        }
+    };
+    for _ in 0..depth_spikes {
+        let k = pick(&mut rng);
+        series.rows[k].depth_m += 1.5;
+    }
+    for _ in 0..heading_spikes {
+        let k = pick(&mut rng);
+        series.rows[k].heading_deg += 40.0;
+    }
+    if let Some((t0, len)) = gap {
+        series
+            .rows
+            .retain(|r| r.time_s < t0 || r.time_s >= t0 + len);
+    }
 }

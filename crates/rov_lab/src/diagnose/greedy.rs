@@ -1,0 +1,258 @@
+//! The state of the greedy forward selection — the current model, its held-out
+//! evaluation, the free parameters, the screening caches and the channel weights — with
+//! its three steps (screen, confirm, accept). The diagnosis drives it over the catalog;
+//! `lab add` drives the same steps over the effects it is given, so both reach the same
+//! fit of the same effect on the same data.
+
+use crate::LabError;
+use crate::calibrate::{Calibration, SHOOTING_WINDOW_S, View};
+use crate::data::Run;
+use crate::evaluate::{Evaluation, evaluate};
+use crate::model::LabModel;
+use crate::params::{Param, axis_params_of};
+
+use super::*;
+
+/// The greedy selection's state.
+pub(super) struct Greedy<'a> {
+    pub(super) train: &'a [Run],
+    pub(super) val: &'a [Run],
+    /// The calibrated base (the screening's linearisation point).
+    pub(super) calibrated: LabModel,
+    pub(super) current: LabModel,
+    pub(super) current_eval: Evaluation,
+    pub(super) current_free: Vec<Param>,
+    cache_short: ColumnCache,
+    cache_shoot: ColumnCache,
+    cache_free: ColumnCache,
+    pub(super) scales: ViewScales,
+    pub(super) closed_loop: bool,
+    threads: usize,
+}
+
+impl<'a> Greedy<'a> {
+    /// The base parameters' sensitivity columns of the multiple-shooting screening
+    /// objective (weights `scales.shoot`, linearised at the calibrated base).
+    pub(super) fn shooting_columns(&self) -> &ColumnCache {
+        &self.cache_shoot
+    }
+
+    /// Starts from a calibration.
+    pub(super) fn new(
+        cal: &Calibration,
+        train: &'a [Run],
+        val: &'a [Run],
+        closed_loop: bool,
+        threads: usize,
+    ) -> Result<Self, LabError> {
+        let current = cal.model.clone();
+        let current_eval = evaluate(&current, val)?;
+        let scales = ViewScales::of_model(&current, train)?;
+        Ok(Self {
+            train,
+            val,
+            calibrated: current.clone(),
+            current,
+            current_eval,
+            current_free: cal.params.clone(),
+            cache_short: ColumnCache::new(),
+            cache_shoot: ColumnCache::new(),
+            cache_free: ColumnCache::new(),
+            scales,
+            closed_loop,
+            threads,
+        })
+    }
+
+    /// Screens candidates on the current model: the fast ones on the short horizon and in
+    /// multiple shooting (each keeps the view where it explains more), the slow ones in
+    /// the free run; ranked (ΔBIC above [`MIN_DBIC`] first, then by explained fraction).
+    pub(super) fn screen(&mut self, cands: &[Candidate]) -> Result<Vec<Screened>, LabError> {
+        let (slow, fast): (Vec<Candidate>, Vec<Candidate>) = cands
+            .iter()
+            .cloned()
+            .partition(|c| primary_view(c.effect) == View::FreeRun);
+        let short = screen(
+            &self.current,
+            self.train,
+            &self.current_free,
+            &fast,
+            short_view(self.train),
+            &self.scales.short,
+            self.threads,
+            &mut self.cache_short,
+        )?;
+        let long = screen(
+            &self.current,
+            self.train,
+            &self.current_free,
+            &fast,
+            View::Shooting(SHOOTING_WINDOW_S),
+            &self.scales.shoot,
+            self.threads,
+            &mut self.cache_shoot,
+        )?;
+        let mut screened: Vec<Screened> = Vec::new();
+        for a in short {
+            match long.iter().find(|b| b.cand.effect == a.cand.effect) {
+                Some(b) if b.explained > a.explained => screened.push(b.clone()),
+                _ => screened.push(a),
+            }
+        }
+        for b in &long {
+            if !screened.iter().any(|a| a.cand.effect == b.cand.effect) {
+                screened.push(b.clone());
+            }
+        }
+        // In the free run only the base parameters of the slow candidates' own axes are
+        // refitted with them (see `confirm_stage1`), so only those are screened with them.
+        let slow_base: Vec<Param> = {
+            let mut own: Vec<Param> = Vec::new();
+            for c in &slow {
+                own.extend(axis_params_of(&home_channels(c.effect)));
+            }
+            self.current_free
+                .iter()
+                .copied()
+                .filter(|p| own.contains(p))
+                .collect()
+        };
+        screened.extend(screen(
+            &self.current,
+            self.train,
+            &slow_base,
+            &slow,
+            View::FreeRun,
+            &self.scales.free,
+            self.threads,
+            &mut self.cache_free,
+        )?);
+        screened.sort_by(|a, b| {
+            (b.dbic > MIN_DBIC)
+                .cmp(&(a.dbic > MIN_DBIC))
+                .then(b.explained.total_cmp(&a.explained))
+        });
+        Ok(screened)
+    }
+
+    /// Confirms screened candidates: the first stage for all, the refinement for the most
+    /// promising (by first-stage held-out score, and any close second; with `refine_all`,
+    /// every one). Candidates not refined are not significant.
+    pub(super) fn confirm(
+        &self,
+        top: &[&Screened],
+        iterations: usize,
+        refine_all: bool,
+    ) -> Vec<(Confirmed, Judgement)> {
+        let caches = Caches {
+            short: &self.cache_short,
+            shoot: &self.cache_shoot,
+            free: &self.cache_free,
+            scales: &self.scales,
+            closed_loop: self.closed_loop,
+        };
+        let stage1: Vec<(Confirmed, Judgement)> = par_map(top.len(), self.threads, |i| {
+            confirm_stage1(
+                &self.current,
+                &self.current_eval,
+                self.train,
+                self.val,
+                &self.current_free,
+                top[i],
+                iterations,
+                &caches,
+            )
+        })
+        .into_iter()
+        .flatten()
+        .collect();
+        let mut order: Vec<usize> = (0..stage1.len()).collect();
+        order.sort_by(|a, b| stage1[*b].1.score.total_cmp(&stage1[*a].1.score));
+        let lead = order.first().map_or(0.0, |i| stage1[*i].1.score);
+        let to_refine: Vec<usize> = if refine_all {
+            order.clone()
+        } else {
+            order
+                .iter()
+                .copied()
+                .enumerate()
+                .filter(|(rank, i)| {
+                    let sc = stage1[*i].1.score;
+                    sc > 0.0
+                        && !stage1[*i].1.channels.is_empty()
+                        && (*rank == 0 || sc >= 0.5 * lead)
+                })
+                .map(|(_, i)| i)
+                .take(2)
+                .collect()
+        };
+        let refined: Vec<Result<(Confirmed, Judgement), LabError>> =
+            par_map(to_refine.len(), self.threads, |k| {
+                let (c1, _) = &stage1[to_refine[k]];
+                refine(
+                    &self.current,
+                    &self.current_eval,
+                    self.train,
+                    self.val,
+                    c1,
+                    c1.contained,
+                    iterations,
+                    &self.scales,
+                    self.closed_loop,
+                )
+            });
+        let mut judged: Vec<(Confirmed, Judgement)> = Vec::new();
+        let mut refined_ok: Vec<usize> = Vec::new();
+        for (k, r) in refined.into_iter().enumerate() {
+            if let Ok(x) = r {
+                refined_ok.push(to_refine[k]);
+                judged.push(x);
+            }
+        }
+        for (i, (c, j)) in stage1.into_iter().enumerate() {
+            if refined_ok.contains(&i) {
+                continue;
+            }
+            let mut j = j;
+            if j.significant {
+                j.significant = false;
+                j.reason = "weaker than the leading candidate in the first-stage fit".into();
+            }
+            judged.push((c, j));
+        }
+        judged.sort_by(|a, b| {
+            b.1.significant
+                .cmp(&a.1.significant)
+                .then(b.1.score.total_cmp(&a.1.score))
+        });
+        judged
+    }
+
+    /// Makes a confirmed candidate part of the model and reweights for the next round.
+    pub(super) fn accept(&mut self, c: &Confirmed) -> Result<(), LabError> {
+        for p in &c.params {
+            if !self.current_free.contains(p) {
+                self.current_free.push(*p);
+            }
+        }
+        self.current = c.fit.model.clone();
+        self.current_eval = c.eval.clone();
+        let new_scales = ViewScales::of_model(&self.current, self.train)?;
+        for (cache, view) in [
+            (&mut self.cache_short, short_view(self.train)),
+            (&mut self.cache_shoot, View::Shooting(SHOOTING_WINDOW_S)),
+            (&mut self.cache_free, View::FreeRun),
+        ] {
+            rescale_cache(
+                cache,
+                &self.calibrated,
+                self.train,
+                view,
+                self.scales.of(view),
+                new_scales.of(view),
+            );
+        }
+        self.scales = new_scales;
+        Ok(())
+    }
+}

@@ -1,0 +1,350 @@
+//! Judging a confirmed candidate on the held-out runs (both error views, the veto rules,
+//! plausibility), and the prediction-change similarity behind "ambiguous".
+
+use std::collections::BTreeMap;
+
+use rov_dynamics::models::Channel;
+
+use crate::calibrate::{REWEIGHT_FACTOR, SHOOTING_WINDOW_S, View};
+use crate::evaluate::{ChannelKey, Evaluation};
+use crate::model::LabModel;
+use crate::params::Param;
+
+use super::*;
+
+#[derive(Debug, Clone)]
+pub(super) struct Judgement {
+    pub(super) significant: bool,
+    pub(super) channels: Vec<ChannelKey>,
+    /// The view that shows the finding best (its home channels' larger reduction).
+    pub(super) view: View,
+    pub(super) primary: BTreeMap<String, f64>,
+    pub(super) free: BTreeMap<String, f64>,
+    pub(super) shoot: BTreeMap<String, f64>,
+    pub(super) score: f64,
+    pub(super) explained: BTreeMap<ChannelKey, f64>,
+    pub(super) reason: String,
+    /// Channels the candidate makes clearly worse in either view, in words.
+    pub(super) conflicts: Vec<String>,
+}
+
+pub(super) fn reduction(base: f64, new: f64) -> f64 {
+    if base > 0.0 { 1.0 - new / base } else { 0.0 }
+}
+
+/// RMS change of a channel's held-out prediction between two evaluations, in the
+/// (shooting, free-run) views.
+pub(super) fn prediction_change_rms(a: &Evaluation, b: &Evaluation, ch: Channel) -> (f64, f64) {
+    let rms = |pa: &[crate::sim::Prediction], pb: &[crate::sim::Prediction]| {
+        let (mut s, mut n) = (0.0, 0usize);
+        for (x, y) in pa.iter().zip(pb) {
+            if let (Some(x), Some(y)) = (x.channel(ch), y.channel(ch)) {
+                for (p, q) in x.iter().zip(y) {
+                    let d = crate::metrics::residual(ch, *p, *q);
+                    if d.is_finite() {
+                        s += d * d;
+                        n += 1;
+                    }
+                }
+            }
+        }
+        if n > 0 { (s / n as f64).sqrt() } else { 0.0 }
+    };
+    (rms(&a.shooting, &b.shooting), rms(&a.free_run, &b.free_run))
+}
+
+/// An effect parameter of a fitted candidate that sits at (within [`BOUND_MARGIN`] of the
+/// range) a bound that is a plausibility limit, not a physical one: (key, value, bound),
+/// display units.
+pub(super) fn pinned_param(c: &Confirmed) -> Option<(String, f64, f64)> {
+    pinned_in(&c.fit.model, &c.params)
+}
+
+/// [`pinned_param`] for a model and a parameter list.
+pub(super) fn pinned_in(model: &LabModel, params: &[Param]) -> Option<(String, f64, f64)> {
+    for p in params {
+        let m = p.meta();
+        let Some(v) = model.get(*p) else {
+            continue;
+        };
+        let margin = BOUND_MARGIN * (m.hi - m.lo);
+        for (bound, upper) in [(m.lo, false), (m.hi, true)] {
+            if (v - bound).abs() <= margin && !p.bound_is_physical(upper) {
+                return Some((p.key(), p.display(v).0, p.display(bound).0));
+            }
+        }
+    }
+    None
+}
+
+/// Judges a fitted candidate against the current model on the held-out runs. Every
+/// candidate is judged the same way, on both error views (multiple shooting and free
+/// run), whichever view it was fitted in:
+///
+/// * **explained channel**: its held-out RMSE falls by [`MIN_REDUCTION`] in *both* views
+///   (a real effect improves the re-initialised windows and the free run alike; a gain in
+///   one view only is that view's artefact: slow compensation accumulating in the free
+///   run, re-initialisation in the windows); it was above [`NOISE_FACTOR`] noise floors in
+///   at least one view; and switching the effect's own term off again (base refit kept)
+///   brings the error back (the "base refit only" control, as the two views' mean). At
+///   least one explained channel must be a home channel of the fitted parameters.
+/// * **made worse** (a veto): the two-view mean RMSE rises by more than [`MAX_WORSE`] and
+///   sits above the floor — unless the rise is not evidence against the effect:
+///   (a) *comparable to noise*: the effect moved that channel's held-out prediction by
+///   less than [`WORSE_NOISE_FRACTION`] of its noise floor (RMS, mean of the views), so
+///   the RMSE change is within what the noise makes of any small change; or
+///   (b) *already badly fitted for reasons the effect does not touch*: the channel is
+///   not one the effect claims, the base misses it by more than [`REWEIGHT_FACTOR`]
+///   noise floors (a structural misfit: missing physics elsewhere), and the rise is at
+///   most [`MAX_WORSE_UNEXPLAINED`] of that misfit — its error is dominated by what is
+///   still missing and moves with any coupling; the greedy loop judges it again once that
+///   is found; or (c) the loss is small against the gain, both in noise floors
+///   ([`WORSE_FRACTION_OF_GAIN`]).
+/// * **plausible parameters**: no effect parameter sits at a plausibility bound
+///   ([`pinned_param`]): a fit pinned there stands in for something else (a depth drift
+///   at its 60 cm/min limit absorbing a thrust asymmetry).
+/// * training ΔBIC above [`MIN_DBIC`] and the effect's signature checks.
+///
+/// The ranking score is the same for every candidate: the noise-normalised held-out RMSE
+/// gain summed over channels, both views counting half.
+pub(super) fn judge(base: &Evaluation, c: &Confirmed, closed_loop: bool) -> Judgement {
+    let mut free = BTreeMap::new();
+    let mut shoot = BTreeMap::new();
+    let mut channels = Vec::new();
+    let mut score = 0.0;
+    let mut worse: Vec<(String, f64)> = Vec::new();
+    // (channel, how much worse in which view, vetoing, the base already misses it).
+    let mut conflicts: Vec<(String, String, bool, bool)> = Vec::new();
+    let home = fitted_home_channels(c);
+    let mut claimed = home.clone();
+    for ch in c.subject.home() {
+        if !claimed.contains(&ch) {
+            claimed.push(ch);
+        }
+    }
+    let mut home_hit = false;
+    // Best home-channel reduction per view (for the reported view).
+    let (mut best_shoot, mut best_free) = (f64::NEG_INFINITY, f64::NEG_INFINITY);
+    for (k, b) in &base.channels {
+        let Some(n) = c.eval.channels.get(k) else {
+            continue;
+        };
+        let ch = k.channel();
+        let name = k.name().to_string();
+        // Closed-loop data: the free run is not a test of the model (module docs of
+        // `crate::ingest`), so both "views" are the multiple-shooting one.
+        let fr = |s: f64, f: f64| if closed_loop { s } else { f };
+        let bv = [b.shooting.rmse, fr(b.shooting.rmse, b.free_run.rmse)];
+        let nv = [n.shooting.rmse, fr(n.shooting.rmse, n.free_run.rmse)];
+        let red = [reduction(bv[0], nv[0]), reduction(bv[1], nv[1])];
+        shoot.insert(name.clone(), 100.0 * red[0]);
+        free.insert(name.clone(), 100.0 * red[1]);
+        if claimed.contains(&ch) {
+            best_shoot = best_shoot.max(red[0]);
+            best_free = best_free.max(red[1]);
+        }
+        let mean_red = 0.5 * (red[0] + red[1]);
+        let floor = b.noise * NOISE_FACTOR;
+        let above = bv.iter().any(|x| *x > floor);
+        let control_ok = match &c.control {
+            None => true,
+            Some(ctrl) => ctrl.channels.get(k).is_some_and(|cc| {
+                let cv = [cc.shooting.rmse, fr(cc.shooting.rmse, cc.free_run.rmse)];
+                let back = [cv[0] - nv[0], cv[1] - nv[1]];
+                let back_rel = 0.5
+                    * (if cv[0] > 0.0 { back[0] / cv[0] } else { 0.0 }
+                        + if cv[1] > 0.0 { back[1] / cv[1] } else { 0.0 });
+                back[0] + back[1] >= CONTROL_FRACTION * (bv[0] - nv[0] + bv[1] - nv[1])
+                    && back_rel >= MIN_REDUCTION
+            }),
+        };
+        if above && red[0].min(red[1]) >= MIN_REDUCTION && control_ok {
+            channels.push(*k);
+            home_hit |= home.contains(&ch);
+        }
+        let sigma = b.noise.max(1e-12);
+        let worse_view_above = (0..2).any(|v| red[v] < -MAX_WORSE && nv[v] > floor);
+        if worse_view_above {
+            let (ds, df) = prediction_change_rms(&c.eval, base, ch);
+            let df = fr(ds, df);
+            let within_noise = 0.5 * (ds + df) < WORSE_NOISE_FRACTION * sigma;
+            let unexplained = !claimed.contains(&ch)
+                && bv[0] > REWEIGHT_FACTOR * sigma
+                && -mean_red <= MAX_WORSE_UNEXPLAINED;
+            let vetoing = mean_red < -MAX_WORSE && !within_noise && !unexplained;
+            if vetoing {
+                let loss = 0.5 * ((nv[0] - bv[0]) + (nv[1] - bv[1])) / sigma;
+                worse.push((name.clone(), loss));
+            }
+            if !within_noise {
+                let views: Vec<String> = (0..2)
+                    .filter(|v| red[*v] < -MAX_WORSE && nv[*v] > floor)
+                    .filter(|v| !(closed_loop && *v == 1))
+                    .map(|v| {
+                        format!(
+                            "{:.0} % worse in the {}",
+                            -red[v] * 100.0,
+                            if v == 0 {
+                                "multiple-shooting view"
+                            } else {
+                                "free run"
+                            }
+                        )
+                    })
+                    .collect();
+                if !views.is_empty() {
+                    conflicts.push((name.clone(), views.join(" and "), vetoing, unexplained));
+                }
+            }
+        }
+        score += 0.5 * (((bv[0] - nv[0]) / sigma).max(0.0) + ((bv[1] - nv[1]) / sigma).max(0.0));
+    }
+    let view = if best_free > best_shoot {
+        View::FreeRun
+    } else {
+        View::Shooting(SHOOTING_WINDOW_S)
+    };
+    let primary = match view {
+        View::FreeRun => free.clone(),
+        _ => shoot.clone(),
+    };
+    let mut explained = BTreeMap::new();
+    for k in &channels {
+        if let (Some(b), Some(n)) = (base.channels.get(k), c.eval.channels.get(k)) {
+            let (bb, nn) = match view {
+                View::FreeRun => (b.free_run.rmse, n.free_run.rmse),
+                _ => (b.shooting.rmse, n.shooting.rmse),
+            };
+            explained.insert(*k, (1.0 - (nn / bb.max(1e-300)).powi(2)).max(0.0));
+        }
+    }
+    // (c): a worsened channel whose loss is small against the gain does not block.
+    let worse: Vec<String> = worse
+        .into_iter()
+        .filter(|(_, loss)| *loss > WORSE_FRACTION_OF_GAIN * score)
+        .map(|(n, _)| n)
+        .collect();
+    let mut reason = String::new();
+    if channels.is_empty() {
+        reason = format!(
+            "no channel above its noise floor improved by {:.0} % on the held-out data in both the shooting and the free-run view with the effect's own term mattering",
+            MIN_REDUCTION * 100.0
+        );
+    } else if !home_hit {
+        reason = format!(
+            "it improves only {} on the held-out data, not where its signature lives",
+            channels
+                .iter()
+                .map(|k| k.name())
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+    } else if !worse.is_empty() {
+        reason = format!(
+            "it makes {} worse on the held-out data, by more than the noise and more than a channel's unexplained misfit can account for",
+            worse.join(", ")
+        );
+    } else if let Some((key, v, bound)) = pinned_param(c) {
+        reason = format!(
+            "its {key} = {v:.3} sits at the bound of its plausible range ({bound}); a fit pinned there stands in for another effect rather than measuring this one"
+        );
+    } else if c.dbic < MIN_DBIC {
+        reason = format!("training ΔBIC {:.1} is below {MIN_DBIC}", c.dbic);
+    } else if let Some(why) = &c.signature_failed {
+        reason = why.clone();
+    }
+    let conflicts = conflicts
+        .into_iter()
+        .map(|(ch, views, vetoing, base_misses)| {
+            if vetoing {
+                format!(
+                    "{ch} gets {views}; this blocks the finding — the fit bends the base to explain its home channels at the cost of {ch}, which usually means the base's structure (a coupling between these channels) is wrong or missing"
+                )
+            } else if base_misses {
+                format!(
+                    "{ch} gets {views}; tolerated because the base already misses {ch} by more than {REWEIGHT_FACTOR} noise floors, but a trade between channels suggests a base-structure problem there"
+                )
+            } else {
+                format!(
+                    "{ch} gets {views}; small against the gain, but a trade between channels suggests a base-structure problem"
+                )
+            }
+        })
+        .collect();
+    Judgement {
+        significant: reason.is_empty(),
+        channels,
+        view,
+        primary,
+        free,
+        shoot,
+        score,
+        explained,
+        reason,
+        conflicts,
+    }
+}
+
+/// Home channels of a fitted effect: those of its parameters that moved noticeably
+/// from "off" (so a torque that only moved its roll part must show in roll).
+pub(super) fn fitted_home_channels(c: &Confirmed) -> Vec<Channel> {
+    let mut out: Vec<Channel> = Vec::new();
+    let mut any_param = false;
+    for p in &c.params {
+        let (Some(off), Some(home)) = (p.off_value(), p.home_channels()) else {
+            continue;
+        };
+        any_param = true;
+        let v = c.fit.model.get(*p).unwrap_or(off);
+        if (v - off).abs() >= 0.25 * (p.probe_value() - off).abs() {
+            for ch in home {
+                if !out.contains(ch) {
+                    out.push(*ch);
+                }
+            }
+        }
+    }
+    if out.is_empty() && !any_param {
+        return c.subject.home();
+    }
+    out
+}
+
+/// The change of the held-out multiple-shooting predictions of some channels between two
+/// evaluations, in noise floors, as one vector (for the cosine of two such changes).
+pub(super) fn prediction_change(
+    a: &Evaluation,
+    b: &Evaluation,
+    ch: &[ChannelKey],
+    noise: &BTreeMap<ChannelKey, f64>,
+) -> Vec<f64> {
+    let mut v = Vec::new();
+    for (pa, pb) in a.shooting.iter().zip(&b.shooting) {
+        for k in ch {
+            let c = k.channel();
+            if let (Some(x), Some(y)) = (pa.channel(c), pb.channel(c)) {
+                let s = noise.get(k).copied().unwrap_or(1.0).max(1e-12);
+                v.extend(x.iter().zip(y).map(|(p, q)| {
+                    let d = crate::metrics::residual(c, *p, *q) / s;
+                    if d.is_finite() { d } else { 0.0 }
+                }));
+            }
+        }
+    }
+    v
+}
+
+/// Cosine similarity of two vectors (0 when either is zero).
+pub(super) fn cosine(a: &[f64], b: &[f64]) -> f64 {
+    let (mut ab, mut aa, mut bb) = (0.0, 0.0, 0.0);
+    for (x, y) in a.iter().zip(b) {
+        ab += x * y;
+        aa += x * x;
+        bb += y * y;
+    }
+    if aa <= 0.0 || bb <= 0.0 {
+        0.0
+    } else {
+        ab / (aa * bb).sqrt()
+    }
+}

@@ -1,0 +1,599 @@
+//! Reading real logs into lab runs, and saying what was done to them.
+//!
+//! Real logs are not the clean step files the lab was first built on. Every treatment is
+//! recorded in the run's [`Treatment`] and reported in words ([`treatment_sentences`]):
+//!
+//! * **Time stamps.** Rows whose time does not increase are dropped (counted). Uneven
+//!   intervals need no treatment: the simulator integrates each interval with its real
+//!   length ([`crate::sim`]); the report gives the spread.
+//! * **Gaps.** An interval longer than max([`GAP_MIN_S`], [`GAP_MEDIAN_FACTOR`] × the
+//!   median interval) splits the log into separate runs (a model cannot be held to what
+//!   happened while nothing was recorded); pieces shorter than [`MIN_PIECE_ROWS`] rows are
+//!   dropped.
+//! * **Spikes.** In each measured channel, a run of at most [`MAX_SPIKE_SAMPLES`] samples
+//!   that departs from the median of its ±[`SPIKE_HALF_WINDOW`] neighbours *and* from the
+//!   samples on both sides by more than [`SPIKE_K`] robust standard deviations (1.4826 ×
+//!   the median absolute departure from the local median, the Hampel identifier) is
+//!   excluded: set missing, so it counts in neither the fits nor the metrics. White
+//!   Gaussian noise exceeds 6 σ on both sides about once in 10⁹ samples. The departure
+//!   must also exceed [`SPIKE_FLANK_RATIO`] times the signal's own change between the
+//!   samples just outside it, so the sharp tip of a real, nearly noise-free signal (a
+//!   yaw rate reversing under an autopilot) is not taken for a spike.
+//! * **Closed loop.** A command whose sample-to-sample changes follow the measured outputs
+//!   (an autopilot reacting to depth or heading, [`feedback_links`]) marks the run as
+//!   closed-loop. The diagnosis then judges on multiple shooting only: in a free run the
+//!   model is not corrected by the autopilot that corrected the real vehicle, so the free
+//!   run's drift says nothing about the model.
+
+use rov_dynamics::models::Channel;
+use rov_dynamics::models::vehicle::{CommandChannel, Commands, N_COMMANDS};
+use rov_types::measurement::MeasurementSeries;
+
+use crate::LabError;
+use crate::data::{FeedbackLink, N_CHANNELS, Run, ch_index, ch_name};
+
+/// Shortest interval that splits a log, s.
+pub const GAP_MIN_S: f64 = 1.0;
+/// An interval longer than this many median intervals splits a log.
+pub const GAP_MEDIAN_FACTOR: f64 = 10.0;
+/// Fewest rows a piece of a split log keeps.
+pub const MIN_PIECE_ROWS: usize = 20;
+/// Spike threshold, robust standard deviations.
+pub const SPIKE_K: f64 = 6.0;
+/// Half-width of the spike detector's median window, samples.
+pub const SPIKE_HALF_WINDOW: usize = 4;
+/// A spike departs from its neighbours by more than this many times the signal's own
+/// sample-to-sample change on its flanks.
+pub const SPIKE_FLANK_RATIO: f64 = 3.0;
+/// Longest run of samples taken as one spike.
+pub const MAX_SPIKE_SAMPLES: usize = 2;
+/// A command is closed-loop when the past outputs explain at least this fraction of the
+/// variance of its changes ...
+pub const FEEDBACK_EXPLAINED: f64 = 0.25;
+/// ... and it changes in at least this fraction of the samples (a schedule of steps
+/// changes rarely; an autopilot's output changes nearly every sample).
+pub const FEEDBACK_CHANGING: f64 = 0.2;
+
+fn median(v: &mut [f64]) -> Option<f64> {
+    if v.is_empty() {
+        return None;
+    }
+    v.sort_by(f64::total_cmp);
+    Some(v[v.len() / 2])
+}
+
+/// Excludes isolated spikes from a channel (sets them NaN); returns how many samples.
+pub fn exclude_spikes(v: &mut [f64]) -> usize {
+    let n = v.len();
+    if n < 4 * SPIKE_HALF_WINDOW {
+        return 0;
+    }
+    // Departure of each sample from the median of its neighbours (itself excluded).
+    let mut dep = vec![f64::NAN; n];
+    let mut buf: Vec<f64> = Vec::with_capacity(2 * SPIKE_HALF_WINDOW);
+    for (k, d) in dep.iter_mut().enumerate() {
+        if !v[k].is_finite() {
+            continue;
+        }
+        buf.clear();
+        let lo = k.saturating_sub(SPIKE_HALF_WINDOW);
+        let hi = (k + SPIKE_HALF_WINDOW + 1).min(n);
+        buf.extend(
+            (lo..hi)
+                .filter(|j| *j != k)
+                .map(|j| v[j])
+                .filter(|x| x.is_finite()),
+        );
+        if buf.len() >= SPIKE_HALF_WINDOW
+            && let Some(m) = median(&mut buf)
+        {
+            *d = v[k] - m;
+        }
+    }
+    let mut abs: Vec<f64> = dep
+        .iter()
+        .filter(|x| x.is_finite())
+        .map(|x| x.abs())
+        .collect();
+    let Some(mad) = median(&mut abs) else {
+        return 0;
+    };
+    // A floor for quantised or constant channels: half the smallest non-zero step.
+    let step = v
+        .windows(2)
+        .map(|w| (w[1] - w[0]).abs())
+        .filter(|x| x.is_finite() && *x > 0.0)
+        .fold(f64::INFINITY, f64::min);
+    let scale = (1.4826 * mad).max(if step.is_finite() { 0.5 * step } else { 0.0 });
+    if scale <= 0.0 {
+        return 0;
+    }
+    let thr = SPIKE_K * scale;
+    let flagged: Vec<bool> = dep.iter().map(|d| d.abs() > thr).collect();
+    let mut out = 0;
+    let mut k = 0;
+    while k < n {
+        if !flagged[k] {
+            k += 1;
+            continue;
+        }
+        let start = k;
+        while k < n && flagged[k] {
+            k += 1;
+        }
+        let end = k;
+        if end - start > MAX_SPIKE_SAMPLES || start == 0 || end >= n {
+            continue;
+        }
+        let before = v[start - 1];
+        let after = v[end];
+        if !(before.is_finite() && after.is_finite()) {
+            continue;
+        }
+        let sign = dep[start].signum();
+        // The signal's own sample-to-sample change just outside the candidate: a sharp
+        // but real peak (a noise-free rate reversing) changes as fast on its flanks as at
+        // its tip; a spike leaves and rejoins a signal that barely moves.
+        let flank = |a: usize, b: usize| -> f64 {
+            match (v.get(a), v.get(b)) {
+                (Some(x), Some(y)) if x.is_finite() && y.is_finite() => (x - y).abs(),
+                _ => 0.0,
+            }
+        };
+        let slope = flank(start - 1, start.saturating_sub(2)).max(flank(end + 1, end));
+        let departs = (start..end).all(|j| {
+            let d = ((v[j] - before) * sign).min((v[j] - after) * sign);
+            dep[j].signum() == sign && d > thr && d > SPIKE_FLANK_RATIO * slope
+        });
+        if departs {
+            for x in &mut v[start..end] {
+                *x = f64::NAN;
+            }
+            out += end - start;
+        }
+    }
+    out
+}
+
+/// The outputs a feedback check looks at.
+const FEEDBACK_OUTPUTS: [Channel; 7] = [
+    Channel::Depth,
+    Channel::Heading,
+    Channel::Pitch,
+    Channel::Roll,
+    Channel::YawRate,
+    Channel::Heave,
+    Channel::Surge,
+];
+
+/// Least-squares R² of y on the columns of x (with a constant), NaN rows skipped.
+fn r_squared(y: &[f64], x: &[Vec<f64>]) -> Option<f64> {
+    let p = x.len() + 1;
+    let rows: Vec<usize> = (0..y.len())
+        .filter(|k| y[*k].is_finite() && x.iter().all(|c| c.get(*k).is_some_and(|v| v.is_finite())))
+        .collect();
+    if rows.len() < 10 * p {
+        return None;
+    }
+    let mut a = nalgebra::DMatrix::<f64>::zeros(p, p);
+    let mut b = nalgebra::DVector::<f64>::zeros(p);
+    let mut row = vec![0.0; p];
+    let (mut sy, mut syy) = (0.0, 0.0);
+    for &k in &rows {
+        row[0] = 1.0;
+        for (j, c) in x.iter().enumerate() {
+            row[j + 1] = c[k];
+        }
+        for i in 0..p {
+            b[i] += row[i] * y[k];
+            for j in 0..p {
+                a[(i, j)] += row[i] * row[j];
+            }
+        }
+        sy += y[k];
+        syy += y[k] * y[k];
+    }
+    let nf = rows.len() as f64;
+    let tss = syy - sy * sy / nf;
+    if tss <= 0.0 {
+        return None;
+    }
+    for i in 0..p {
+        a[(i, i)] += 1e-12 * a[(i, i)].abs().max(1e-300);
+    }
+    let beta = a.clone().lu().solve(&b)?;
+    // RSS = yᵀy − βᵀ(Xᵀy) for the least-squares β.
+    let rss = syy - beta.dot(&b);
+    Some((1.0 - rss / tss).clamp(0.0, 1.0))
+}
+
+/// Commands of a run that follow its measured outputs: for each present command channel
+/// that changes in at least [`FEEDBACK_CHANGING`] of the samples, the fraction of the
+/// variance of its changes Δu_k explained (least squares) by the output's changes Δy_k,
+/// Δy_{k−1} and its level y_k (measured before command k acts, so causation can only run
+/// from output to command); listed when at least [`FEEDBACK_EXPLAINED`]. A step schedule
+/// changes too rarely to qualify; a human pilot rarely reaches the fraction.
+pub fn feedback_links(run: &Run) -> Vec<FeedbackLink> {
+    let n = run.len();
+    let mut out = Vec::new();
+    if n < 50 {
+        return out;
+    }
+    for c in CommandChannel::ALL {
+        if !run.input_present[c.index()] {
+            continue;
+        }
+        let u: Vec<f64> = run.inputs.iter().map(|x| x[c.index()]).collect();
+        let du: Vec<f64> = (0..n)
+            .map(|k| if k == 0 { f64::NAN } else { u[k] - u[k - 1] })
+            .collect();
+        let changing = du.iter().filter(|d| d.abs() > 1e-9).count();
+        if (changing as f64) < FEEDBACK_CHANGING * n as f64 {
+            continue;
+        }
+        let mut best: Option<(Channel, f64)> = None;
+        for ch in FEEDBACK_OUTPUTS {
+            let Some(y) = run.channel(ch) else { continue };
+            let dy: Vec<f64> = (0..n)
+                .map(|k| if k == 0 { f64::NAN } else { y[k] - y[k - 1] })
+                .collect();
+            let dy1: Vec<f64> = (0..n)
+                .map(|k| if k < 2 { f64::NAN } else { dy[k - 1] })
+                .collect();
+            if let Some(r2) = r_squared(&du, &[dy, dy1, y.to_vec()])
+                && best.is_none_or(|(_, b)| r2 > b)
+            {
+                best = Some((ch, r2));
+            }
+        }
+        if let Some((ch, r2)) = best
+            && r2 >= FEEDBACK_EXPLAINED
+        {
+            out.push(FeedbackLink {
+                command: c.name().to_string(),
+                output: ch_name(ch).to_string(),
+                explained: r2,
+            });
+        }
+    }
+    out
+}
+
+/// Extra command columns a measurement CSV may carry: `NAME_pct` for every command
+/// channel beyond the Pro 4's three.
+fn extra_command_columns(header: &[&str]) -> Vec<(usize, CommandChannel)> {
+    header
+        .iter()
+        .enumerate()
+        .filter_map(|(i, h)| {
+            let name = h.strip_suffix("_pct")?;
+            let c = CommandChannel::parse(name)?;
+            (!matches!(
+                c,
+                CommandChannel::Port | CommandChannel::Starboard | CommandChannel::Vertical
+            ))
+            .then_some((i, c))
+        })
+        .collect()
+}
+
+/// A measurement CSV as runs: rows with non-increasing time dropped, split at gaps, spikes
+/// excluded; extra `NAME_pct` command columns (a lateral thruster, body-axis demands)
+/// become command channels.
+pub fn measurement_runs(text: &str, label: &str) -> Result<Vec<Run>, LabError> {
+    let mut lines = text.lines();
+    let Some(header_line) = lines.next() else {
+        return Err(LabError::Data {
+            run: label.into(),
+            detail: "empty file".into(),
+        });
+    };
+    let header: Vec<&str> = header_line.split(',').map(str::trim).collect();
+    let t_col = header.iter().position(|h| *h == "time_s");
+    let extra = extra_command_columns(&header);
+    // Keep line numbers for the parser's messages: dropped rows become comment lines.
+    let mut cleaned = String::with_capacity(text.len());
+    cleaned.push_str(header_line);
+    cleaned.push('\n');
+    let mut last_t = f64::NEG_INFINITY;
+    let mut dropped = 0usize;
+    let mut extra_rows: Vec<Vec<f64>> = Vec::new();
+    for line in lines {
+        let trimmed = line.trim();
+        if trimmed.is_empty() || trimmed.starts_with('#') {
+            cleaned.push_str(line);
+            cleaned.push('\n');
+            continue;
+        }
+        let cells: Vec<&str> = line.split(',').map(str::trim).collect();
+        let t = t_col
+            .and_then(|i| cells.get(i))
+            .and_then(|c| c.parse::<f64>().ok());
+        if let Some(t) = t
+            && t.is_finite()
+        {
+            if t <= last_t {
+                dropped += 1;
+                cleaned.push_str("# dropped: time does not increase\n");
+                continue;
+            }
+            last_t = t;
+        }
+        extra_rows.push(
+            extra
+                .iter()
+                .map(|(i, _)| {
+                    cells
+                        .get(*i)
+                        .and_then(|c| c.parse::<f64>().ok())
+                        .filter(|x| x.is_finite())
+                        .map_or(0.0, |x| x.clamp(-100.0, 100.0))
+                })
+                .collect(),
+        );
+        cleaned.push_str(line);
+        cleaned.push('\n');
+    }
+    let mut series = MeasurementSeries::parse_csv(&cleaned, label)?;
+    series.warnings.retain(|w| {
+        !extra
+            .iter()
+            .any(|(i, _)| header.get(*i).is_some_and(|h| w.contains(h)))
+    });
+    let inputs = if extra.is_empty() || extra_rows.len() != series.rows.len() {
+        None
+    } else {
+        let mut present = [false; N_COMMANDS];
+        for c in [
+            CommandChannel::Port,
+            CommandChannel::Starboard,
+            CommandChannel::Vertical,
+        ] {
+            present[c.index()] = true;
+        }
+        for (_, c) in &extra {
+            present[c.index()] = true;
+        }
+        let v: Vec<Commands> = series
+            .rows
+            .iter()
+            .zip(&extra_rows)
+            .map(|(r, e)| {
+                let mut c = crate::data::commands_of_pct(&rov_dynamics::ThrustPct::new(
+                    r.port_pct,
+                    r.starboard_pct,
+                    r.vertical_pct,
+                ));
+                for ((_, ch), x) in extra.iter().zip(e) {
+                    c[ch.index()] = *x;
+                }
+                c
+            })
+            .collect();
+        Some((v, present))
+    };
+    let mut runs = series_runs(&series, label, inputs)?;
+    for r in &mut runs {
+        r.treatment.dropped_time_rows = dropped;
+        r.treatment.notes.extend(series.warnings.iter().cloned());
+    }
+    Ok(runs)
+}
+
+/// A series (with optional full command channels) as runs split at gaps.
+pub fn series_runs(
+    series: &MeasurementSeries,
+    label: &str,
+    inputs: Option<(Vec<Commands>, [bool; N_COMMANDS])>,
+) -> Result<Vec<Run>, LabError> {
+    let t: Vec<f64> = series.rows.iter().map(|r| r.time_s).collect();
+    let mut dts: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
+    dts.sort_by(f64::total_cmp);
+    let med = dts.get(dts.len() / 2).copied().unwrap_or(0.05);
+    let limit = GAP_MIN_S.max(GAP_MEDIAN_FACTOR * med);
+    let mut cuts = vec![0usize];
+    let mut gaps = Vec::new();
+    for (k, w) in t.windows(2).enumerate() {
+        if w[1] - w[0] > limit {
+            cuts.push(k + 1);
+            gaps.push((w[0], w[1] - w[0]));
+        }
+    }
+    cuts.push(t.len());
+    let pieces: Vec<(usize, usize)> = cuts.windows(2).map(|w| (w[0], w[1])).collect();
+    let kept: Vec<(usize, usize)> = pieces
+        .iter()
+        .copied()
+        .filter(|(a, b)| b - a >= MIN_PIECE_ROWS)
+        .collect();
+    let short = pieces.len() - kept.len();
+    if kept.is_empty() {
+        return Err(LabError::Data {
+            run: label.into(),
+            detail: format!(
+                "{} rows; after splitting at gaps no piece has the {MIN_PIECE_ROWS} rows the lab needs",
+                t.len()
+            ),
+        });
+    }
+    let mut out = Vec::with_capacity(kept.len());
+    for (i, (a, b)) in kept.iter().enumerate() {
+        let piece = MeasurementSeries {
+            rows: series.rows[*a..*b].to_vec(),
+            present: series.present,
+            warnings: Vec::new(),
+        };
+        let name = if kept.len() > 1 {
+            format!("{label}#{}", i + 1)
+        } else {
+            label.to_string()
+        };
+        let inp = inputs.as_ref().map(|(v, p)| (v[*a..*b].to_vec(), *p));
+        let mut run = Run::from_series_inputs(&piece, &name, inp)?;
+        run.treatment.source = label.to_string();
+        run.treatment.segment = i + 1;
+        run.treatment.segments = kept.len();
+        run.treatment.gaps = gaps.clone();
+        if short > 0 {
+            run.treatment.notes.push(format!(
+                "{short} piece(s) between gaps shorter than {MIN_PIECE_ROWS} rows dropped"
+            ));
+        }
+        out.push(run);
+    }
+    Ok(out)
+}
+
+/// Reads a log of any supported text format: the BlueROV2 tank CSV (recognised by its
+/// `ch5_surge` column) or a measurement CSV.
+pub fn runs_from_text(text: &str, label: &str) -> Result<Vec<Run>, LabError> {
+    let first = text.lines().next().unwrap_or("");
+    if first.split(',').any(|c| c.trim() == "ch5_surge") {
+        let b = crate::bluerov::bluerov_to_series_inputs(text, label)?;
+        let mut runs = series_runs(&b.series, label, Some((b.inputs, b.present)))?;
+        for r in &mut runs {
+            r.treatment.dropped_time_rows = b.dropped_rows;
+            r.treatment.notes.push(
+                "BlueROV2 tank data: its own six body-axis demands as command channels, and the Pro 4 view (surge and yaw demands → port/starboard, heave → vertical) for the Pro 4 models".into(),
+            );
+        }
+        return Ok(runs);
+    }
+    measurement_runs(text, label)
+}
+
+/// The treatments of some runs in words, one sentence per source.
+pub fn treatment_sentences(runs: &[Run]) -> Vec<String> {
+    let mut sources: Vec<&str> = Vec::new();
+    for r in runs {
+        if !sources.contains(&r.treatment.source.as_str()) {
+            sources.push(&r.treatment.source);
+        }
+    }
+    let mut out = Vec::new();
+    for src in sources {
+        let pieces: Vec<&Run> = runs.iter().filter(|r| r.treatment.source == src).collect();
+        let Some(first) = pieces.first() else {
+            continue;
+        };
+        let tr = &first.treatment;
+        let mut parts: Vec<String> = Vec::new();
+        let mut spikes = [0usize; N_CHANNELS];
+        for p in &pieces {
+            for (s, x) in spikes.iter_mut().zip(p.treatment.spikes) {
+                *s += x;
+            }
+        }
+        for ch in Channel::ALL {
+            let k = spikes[ch_index(ch)];
+            if k > 0 {
+                parts.push(format!(
+                    "{k} {} spike{} excluded",
+                    ch_name(ch),
+                    if k == 1 { "" } else { "s" }
+                ));
+            }
+        }
+        if !tr.gaps.is_empty() {
+            let g: Vec<String> = tr
+                .gaps
+                .iter()
+                .map(|(t, d)| format!("{d:.1} s at t = {t:.1} s"))
+                .collect();
+            parts.push(format!(
+                "{} gap{} ({}) split the run into {} segment{}",
+                tr.gaps.len(),
+                if tr.gaps.len() == 1 { "" } else { "s" },
+                g.join(", "),
+                tr.segments,
+                if tr.segments == 1 { "" } else { "s" }
+            ));
+        }
+        if tr.dropped_time_rows > 0 {
+            parts.push(format!(
+                "{} row{} whose time did not increase dropped",
+                tr.dropped_time_rows,
+                if tr.dropped_time_rows == 1 { "" } else { "s" }
+            ));
+        }
+        let (med, lo, hi) = tr.dt_median_min_max_s;
+        if med > 0.0 && hi > 1.5 * lo {
+            parts.push(format!(
+                "uneven sample intervals ({:.3}–{:.3} s, median {:.3} s) simulated with their real lengths",
+                lo, hi, med
+            ));
+        }
+        let mut links: Vec<&FeedbackLink> = Vec::new();
+        for p in &pieces {
+            for l in &p.treatment.closed_loop {
+                if !links.iter().any(|x| x.command == l.command) {
+                    links.push(l);
+                }
+            }
+        }
+        if !links.is_empty() {
+            let l: Vec<String> = links
+                .iter()
+                .map(|l| {
+                    format!(
+                        "the {} command follows the measured {} ({:.0} % of its changes)",
+                        l.command,
+                        l.output,
+                        l.explained * 100.0
+                    )
+                })
+                .collect();
+            parts.push(format!(
+                "closed-loop data: {}; judged on multiple shooting only (a free-running model is not corrected by the autopilot that corrected the vehicle)",
+                l.join(", ")
+            ));
+        }
+        for n in &tr.notes {
+            if !parts.contains(n) {
+                parts.push(n.clone());
+            }
+        }
+        if !parts.is_empty() {
+            out.push(format!("{src}: {}", parts.join("; ")));
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn noisy(n: usize, seed: u64) -> Vec<f64> {
+        let mut x = seed;
+        (0..n)
+            .map(|k| {
+                let mut s = 0.0;
+                for _ in 0..12 {
+                    x = x
+                        .wrapping_mul(6364136223846793005)
+                        .wrapping_add(1442695040888963407);
+                    s += (x >> 11) as f64 / (1u64 << 53) as f64;
+                }
+                (k as f64 * 0.01).sin() * 3.0 + 0.02 * (s - 6.0)
+            })
+            .collect()
+    }
+
+    #[test]
+    fn spikes_are_excluded_and_noise_is_not() {
+        let mut v = noisy(5000, 7);
+        assert_eq!(exclude_spikes(&mut v.clone()), 0);
+        v[1000] += 1.0;
+        v[2000] -= 0.5;
+        v[2001] -= 0.5;
+        // A step is not a spike.
+        for x in v.iter_mut().skip(3000) {
+            *x += 2.0;
+        }
+        let n = exclude_spikes(&mut v);
+        assert_eq!(n, 3, "{n}");
+        assert!(v[1000].is_nan() && v[2000].is_nan() && v[2001].is_nan());
+        assert!(v[3000].is_finite() && v[2999].is_finite());
+    }
+}
