@@ -31,6 +31,9 @@ pub mod screenshot;
 pub mod sessions;
 pub mod settings;
 pub mod theme;
+pub mod video;
+mod video_settings;
+mod lab_video;
 
 use std::path::{Path, PathBuf};
 use std::sync::mpsc::{Receiver, channel};

@@ -160,6 +160,10 @@ impl VideoStatus {
 struct RecordSink {
     encoder: Mutex<Option<Encoder>>,
     dropped: AtomicU64,
+    /// Frames given to the encoder and units it delivered (virtual time waits for each
+    /// frame's unit, so units reach the file in time order with the telemetry).
+    pushed: AtomicU64,
+    delivered: Arc<AtomicU64>,
 }
 
 impl FrameSink for RecordSink {
@@ -396,10 +400,18 @@ impl StationVideo {
         if let Some(s) = &self.slot {
             s.store(Arc::clone(&frame));
         }
-        if let Some(e) = lock(&self.record.encoder).as_ref()
-            && e.push_blocking(frame).is_err()
-        {
-            self.record.dropped.fetch_add(1, Ordering::Relaxed);
+        let r = &self.record;
+        if let Some(e) = lock(&r.encoder).as_ref() {
+            if e.push_blocking(frame).is_err() {
+                r.dropped.fetch_add(1, Ordering::Relaxed);
+                return;
+            }
+            let pushed = r.pushed.fetch_add(1, Ordering::Relaxed) + 1;
+            // x264 at zero latency gives one unit per frame: wait for it (bounded).
+            let until = std::time::Instant::now() + Duration::from_secs(2);
+            while r.delivered.load(Ordering::Acquire) < pushed && std::time::Instant::now() < until {
+                std::thread::sleep(Duration::from_micros(200));
+            }
         }
     }
 
@@ -420,6 +432,13 @@ impl StationVideo {
     #[must_use]
     pub fn now_ns(&self) -> u64 {
         self.clock.now_ns()
+    }
+
+    /// A live source (capture times on the station clock: the capture-to-screen latency
+    /// means something).
+    #[must_use]
+    pub fn is_live(&self) -> bool {
+        matches!(self.kind, Kind::Live(_))
     }
 
     /// Whether there is a picture to show (or a reason there is none): the Fly tab's
@@ -473,8 +492,14 @@ impl StationVideo {
         if !matches!(self.kind, Kind::Live(_) | Kind::Virtual(_)) || self.slot.is_none() {
             return Ok(false);
         }
-        let enc = Encoder::start(EncoderConfig::default(), move |au| tap.send(au))
-            .map_err(|e| e.to_string())?;
+        let delivered = Arc::clone(&self.record.delivered);
+        self.record.pushed.store(0, Ordering::Relaxed);
+        delivered.store(0, Ordering::Relaxed);
+        let enc = Encoder::start(EncoderConfig::default(), move |au| {
+            tap.send(au);
+            delivered.fetch_add(1, Ordering::Release);
+        })
+        .map_err(|e| e.to_string())?;
         self.record.dropped.store(0, Ordering::Relaxed);
         if let Some(old) = lock(&self.record.encoder).replace(enc) {
             let _ = old.finish(FINISH_TIMEOUT);
