@@ -49,6 +49,9 @@ pub struct VideoSettings {
     pub source: String,
     /// The simulator's seabed depth, m.
     pub sim_seabed_depth_m: f64,
+    /// Draw each simulator frame's capture time into it (`rov_video::stamp`; replay
+    /// tests read it back). Not a configuration key.
+    pub sim_stamp_time: bool,
 }
 
 impl Default for VideoSettings {
@@ -56,6 +59,7 @@ impl Default for VideoSettings {
         Self {
             source: "auto".to_owned(),
             sim_seabed_depth_m: SimScene::default().seabed_depth_m,
+            sim_stamp_time: false,
         }
     }
 }
@@ -83,6 +87,7 @@ impl VideoSettings {
                 1.0..=200.0,
                 d.sim_seabed_depth_m,
             )?,
+            sim_stamp_time: false,
         };
         f.reject_unknown("video")?;
         Ok(s)
@@ -237,7 +242,8 @@ fn sim_camera(settings: &VideoSettings) -> Result<SimCamera, String> {
         seabed_depth_m: settings.sim_seabed_depth_m,
         ..SimScene::default()
     };
-    SimCamera::new(scene, CameraModel::default(), false).map_err(|e| e.to_string())
+    SimCamera::new(scene, CameraModel::default(), settings.sim_stamp_time)
+        .map_err(|e| e.to_string())
 }
 
 impl StationVideo {
