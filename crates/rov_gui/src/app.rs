@@ -297,7 +297,10 @@ impl StationApp {
     /// The `[video]` settings from the station configuration (the Settings tab edits
     /// them, the Connection tab's device choice is saved into them).
     #[must_use]
-    pub fn with_video_settings(mut self, video: rov_station::runtime::video::VideoSettings) -> Self {
+    pub fn with_video_settings(
+        mut self,
+        video: rov_station::runtime::video::VideoSettings,
+    ) -> Self {
         self.video_settings = video;
         self
     }
@@ -633,7 +636,7 @@ impl StationApp {
         if let Some(c) = step {
             self.replay_cmd(c);
         }
-        if toggle_view && self.main_view.is_some() {
+        if toggle_view && (self.main_view.is_some() || crate::video::shown_video(self).is_some()) {
             self.instruments_only = !self.instruments_only;
         }
         let (sticks, space, esc, gain, hold_d, hold_h) = ui.input(|i| {

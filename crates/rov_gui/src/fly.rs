@@ -188,9 +188,10 @@ fn hud_overlay(app: &mut StationApp, ui: &mut Ui, rect: Rect, v: &StationView) {
         pos2(rect.max.x - 150.0 - m, rect.max.y - 170.0 - m),
         rect.max - vec2(m, m),
     );
+    // The bottom 30 px stay free for the status strip (REC, link, video, alarms).
     let mid = Rect::from_min_max(
         pos2(left.max.x + m, top.max.y + m),
-        pos2(bars.min.x - m, rect.max.y - m),
+        pos2(bars.min.x - m, rect.max.y - m - 30.0),
     );
     ui.scope_builder(UiBuilder::new().max_rect(top), |ui| {
         heading_tape(app, ui, v, top.size());

@@ -57,7 +57,10 @@ impl LabVideo {
     /// Asks for the frame at `t_s` (s since the session start).
     pub fn request(&self, t_s: f64) {
         if let Some(p) = &self.player {
-            p.request(self.start_ns.saturating_add((t_s.max(0.0) * 1e9).round() as u64));
+            p.request(
+                self.start_ns
+                    .saturating_add((t_s.max(0.0) * 1e9).round() as u64),
+            );
         }
     }
 }
@@ -78,11 +81,19 @@ pub(crate) fn panel(app: &mut StationApp, ui: &mut Ui) {
         lv.request(0.0);
     }
     if let Some(e) = &lv.error {
-        ui.label(RichText::new(format!("camera: {e}")).small().color(theme::AMBER));
+        ui.label(
+            RichText::new(format!("camera: {e}"))
+                .small()
+                .color(theme::AMBER),
+        );
         return;
     }
     let Some(player) = &lv.player else {
-        ui.label(RichText::new("this session has no camera video").small().color(theme::DIM));
+        ui.label(
+            RichText::new("this session has no camera video")
+                .small()
+                .color(theme::DIM),
+        );
         return;
     };
     let slot = player.slot();

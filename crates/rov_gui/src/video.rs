@@ -142,7 +142,14 @@ impl VideoPane {
 }
 
 /// Text on a dark backplate (legible on a bright picture).
-fn plate(p: &egui::Painter, at: egui::Pos2, align: Align2, text: &str, font: FontId, color: Color32) -> Rect {
+fn plate(
+    p: &egui::Painter,
+    at: egui::Pos2,
+    align: Align2,
+    text: &str,
+    font: FontId,
+    color: Color32,
+) -> Rect {
     let galley = p.layout_no_wrap(text.to_owned(), font, color);
     let r = align.anchor_size(at, galley.size()).expand2(vec2(8.0, 4.0));
     p.rect_filled(r, 4.0, Color32::from_black_alpha(170));
@@ -157,13 +164,26 @@ pub(crate) fn shown_video(app: &StationApp) -> Option<Arc<StationVideo>> {
 }
 
 /// The status strip over the picture: REC, link, video and the alarms.
-pub(crate) fn status_strip(ui: &Ui, rect: Rect, v: &StationView, status: &VideoStatus, latency: Option<(f64, f64)>) {
+pub(crate) fn status_strip(
+    ui: &Ui,
+    rect: Rect,
+    v: &StationView,
+    status: &VideoStatus,
+    latency: Option<(f64, f64)>,
+) {
     let p = ui.painter_at(rect);
     let font = FontId::monospace(14.0);
     let mut x = rect.min.x + 150.0;
     let y = rect.max.y - 8.0;
     let mut put = |text: String, color: Color32| {
-        let r = plate(&p, pos2(x, y), Align2::LEFT_BOTTOM, &text, font.clone(), color);
+        let r = plate(
+            &p,
+            pos2(x, y),
+            Align2::LEFT_BOTTOM,
+            &text,
+            font.clone(),
+            color,
+        );
         x = r.max.x + 6.0;
     };
     if v.recording.path.is_some() {

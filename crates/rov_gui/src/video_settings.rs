@@ -14,7 +14,10 @@ use crate::theme;
 
 /// The choices offered besides the devices and free text.
 const PRESETS: [(&str, &str); 4] = [
-    ("auto", "auto (sim camera with the simulator, first capture device with a port)"),
+    (
+        "auto",
+        "auto (sim camera with the simulator, first capture device with a port)",
+    ),
     ("sim", "simulator camera"),
     ("test", "GStreamer test pattern"),
     ("none", "no video"),

@@ -18,7 +18,9 @@ use rov_station::runtime::{
 static SERIAL: Mutex<()> = Mutex::new(());
 
 fn serial() -> std::sync::MutexGuard<'static, ()> {
-    SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
+    SERIAL
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner)
 }
 
 fn wait_until(timeout: Duration, mut cond: impl FnMut() -> bool) -> Option<Duration> {
@@ -106,7 +108,10 @@ fn the_gstreamer_test_source_reaches_the_station_as_640x480_at_25_fps() {
     }
     let n = seen.len();
     assert!((45..=55).contains(&n), "{n} frames in 2 s");
-    assert!(seen.windows(2).all(|w| w[1] > w[0]), "capture times increase");
+    assert!(
+        seen.windows(2).all(|w| w[1] > w[0]),
+        "capture times increase"
+    );
     let span_s = (seen[n - 1] - seen[0]) as f64 * 1e-9;
     let fps = (n - 1) as f64 / span_s;
     assert!((23.0..=27.0).contains(&fps), "{fps:.2} fps");
@@ -153,13 +158,20 @@ fn a_source_killed_mid_run_shows_no_video_within_1_s_and_misses_no_control_tick(
         video.status().no_video_label().is_some()
     });
     let label = video.status().no_video_label();
-    let gone = gone.unwrap_or_else(|| panic!("still video 3 s after the kill: {:?}", video.status()));
+    let gone =
+        gone.unwrap_or_else(|| panic!("still video 3 s after the kill: {:?}", video.status()));
     let after_kill = killed.elapsed();
-    eprintln!("NO VIDEO {:.0} ms after the kill: {label:?}", gone.as_secs_f64() * 1e3);
+    eprintln!(
+        "NO VIDEO {:.0} ms after the kill: {label:?}",
+        gone.as_secs_f64() * 1e3
+    );
     assert!(after_kill <= Duration::from_millis(1100), "{after_kill:?}");
     let label = label.unwrap();
     assert!(label.starts_with("NO VIDEO"), "{label}");
-    assert!(label.contains(&format!("udp://127.0.0.1:{port}")), "{label}");
+    assert!(
+        label.contains(&format!("udp://127.0.0.1:{port}")),
+        "{label}"
+    );
     // The station kept flying: ticks went on, none missed.
     std::thread::sleep(Duration::from_millis(500));
     let after = h.tick_stats();
@@ -187,11 +199,15 @@ fn a_bad_source_leaves_the_station_running_without_video_and_says_why() {
     })
     .unwrap();
     let v = h.video().unwrap().clone();
-    let ok = wait_until(Duration::from_secs(10), || v.status().no_video_label().is_some());
+    let ok = wait_until(Duration::from_secs(10), || {
+        v.status().no_video_label().is_some()
+    });
     let label = v.status().no_video_label().unwrap_or_default();
     assert!(ok.is_some() && label.contains("/dev/video99"), "{label}");
     assert!(
-        wait_until(Duration::from_secs(10), |  | h.view().link.health == "connected").is_some()
+        wait_until(Duration::from_secs(10), || h.view().link.health
+            == "connected")
+        .is_some()
     );
     h.shutdown();
     // A source text that is not a source at all.
@@ -247,9 +263,9 @@ fn replay_shows_the_frame_of_the_seek_time() {
         let want_ns = start_ns + (seek_s * 1e9) as u64;
         let mut frame = None;
         wait_until(Duration::from_secs(10), || {
-            frame = slot.latest().filter(|f| {
-                f.capture_ns <= want_ns && want_ns - f.capture_ns < 40_000_000
-            });
+            frame = slot
+                .latest()
+                .filter(|f| f.capture_ns <= want_ns && want_ns - f.capture_ns < 40_000_000);
             frame.is_some()
         });
         let f = frame.unwrap_or_else(|| {

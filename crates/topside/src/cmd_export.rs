@@ -70,7 +70,11 @@ pub fn run(args: ExportArgs) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
-fn write_csv(session: &Session, source: &std::path::Path, csv_path: &std::path::Path) -> anyhow::Result<()> {
+fn write_csv(
+    session: &Session,
+    source: &std::path::Path,
+    csv_path: &std::path::Path,
+) -> anyhow::Result<()> {
     let partial = {
         let mut name = csv_path.to_path_buf().into_os_string();
         name.push(".partial");

@@ -20,9 +20,7 @@ fn autopilot_text(a: Option<&AutopilotRecord>) -> String {
     let Some(a) = a else {
         return "manual".to_owned();
     };
-    let depth = a
-        .depth_setpoint_m
-        .map(|d| format!("depth {d:.1} m"));
+    let depth = a.depth_setpoint_m.map(|d| format!("depth {d:.1} m"));
     let heading = a
         .heading_setpoint_deg
         .map(|h| format!("heading {:03.0}°", h.rem_euclid(360.0)));
@@ -73,7 +71,12 @@ fn subtitle_samples(session: &Session) -> Vec<(u64, String)> {
 }
 
 /// Writes `out` and its `.ass`; prints what was written on stderr.
-pub fn export_video(session: &Session, file: &Path, out: &Path, overlay: bool) -> anyhow::Result<()> {
+pub fn export_video(
+    session: &Session,
+    file: &Path,
+    out: &Path,
+    overlay: bool,
+) -> anyhow::Result<()> {
     let lines = lines_from_samples(subtitle_samples(session), LINE_NS);
     let mut frames = session.video(0, u64::MAX);
     let units = std::iter::from_fn(|| {
@@ -86,8 +89,13 @@ pub fn export_video(session: &Session, file: &Path, out: &Path, overlay: bool) -
         title: file.display().to_string(),
         ..ExportOptions::default()
     };
-    let s = export_mp4(units, &lines, out, &options)
-        .with_context(|| format!("exporting the video of {} to {}", file.display(), out.display()))?;
+    let s = export_mp4(units, &lines, out, &options).with_context(|| {
+        format!(
+            "exporting the video of {} to {}",
+            file.display(),
+            out.display()
+        )
+    })?;
     eprintln!(
         "wrote {} ({} frames, {:.1} s, {}x{}{}) and {} ({} lines)",
         s.mp4.display(),

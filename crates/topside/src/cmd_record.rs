@@ -403,9 +403,7 @@ pub fn run(args: RecordArgs, config: Option<&std::path::Path>) -> anyhow::Result
         );
     }
     if args.fast && args.video == "test" {
-        bail!(
-            "--video test runs on wall time; with --fast (virtual time) use --video sim or none"
-        );
+        bail!("--video test runs on wall time; with --fast (virtual time) use --video sim or none");
     }
     let cfg = runtime_config(args.seed, &args.video, config)?;
     let wall = Instant::now();

@@ -120,7 +120,12 @@ pub fn rig(rec_name: &str) -> Rig {
 }
 
 pub fn rig_sized(rec_name: &str, size: egui::Vec2) -> Rig {
-    let (st, handle) = VirtualStation::new(config()).unwrap();
+    rig_config(rec_name, size, config())
+}
+
+/// A rig on a station of the given configuration (e.g. with the sim camera).
+pub fn rig_config(rec_name: &str, size: egui::Vec2, cfg: RuntimeConfig) -> Rig {
+    let (st, handle) = VirtualStation::new(cfg).unwrap();
     let shared = Shared::default();
     let rec = tmp(rec_name);
     let _ = std::fs::create_dir_all(rec.parent().unwrap());

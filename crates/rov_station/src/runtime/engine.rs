@@ -484,7 +484,10 @@ impl Engine {
         match Recorder::start(path, &info, now_us, self.cfg.record_blocking) {
             Ok(r) => {
                 self.last_record_ns.set(0);
-                let video = self.video.as_ref().map(|v| v.begin_recording(r.video_tap()));
+                let video = self
+                    .video
+                    .as_ref()
+                    .map(|v| v.begin_recording(r.video_tap()));
                 self.recorder = Some(r);
                 if let Some(Err(e)) = video {
                     self.event(

@@ -131,7 +131,9 @@ pub(crate) fn start(cfg: RuntimeConfig, models: ModelSet) -> Result<StationHandl
             let clock = shared.clock;
             move || clock.now_us().saturating_mul(1000)
         },
-        truth_tap.clone().map(|tap| sim_pose(tap, Arc::clone(&shared))),
+        truth_tap
+            .clone()
+            .map(|tap| sim_pose(tap, Arc::clone(&shared))),
     ));
     engine.attach_video(Arc::clone(&video));
     if let Some(tap) = truth_tap {

@@ -428,8 +428,10 @@ impl ReplayEngine {
             self.player.speed(),
             self.player.session().len(),
         );
-        self.video
-            .show_at(self.start_ns.saturating_add((position_s.max(0.0) * 1e9).round() as u64));
+        self.video.show_at(
+            self.start_ns
+                .saturating_add((position_s.max(0.0) * 1e9).round() as u64),
+        );
         let v = &mut self.feed.pipeline.view;
         v.seq += 1;
         v.replay = Some(ReplayView {
@@ -519,7 +521,10 @@ impl VirtualReplay {
             path: path.to_path_buf(),
         };
         v.engine.publish(&v.shared);
-        Ok((v, StationHandle::new(shared, tx, Vec::new()).with_video(video)))
+        Ok((
+            v,
+            StationHandle::new(shared, tx, Vec::new()).with_video(video),
+        ))
     }
 
     /// The file.

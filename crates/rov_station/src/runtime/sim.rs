@@ -47,9 +47,9 @@ impl SimApp for App {
         }
         self.engine.tick(link, now_us);
         self.engine.record_truth(vehicle.sim().truth(), now_us);
-        let (lights_pct, tilt_deg) = link
-            .last_control_sent()
-            .map_or((0.0, 0.0), |(_, c)| (f64::from(c.lights_pct), f64::from(c.tilt_deg)));
+        let (lights_pct, tilt_deg) = link.last_control_sent().map_or((0.0, 0.0), |(_, c)| {
+            (f64::from(c.lights_pct), f64::from(c.tilt_deg))
+        });
         self.video
             .virtual_tick(vehicle.sim().truth(), lights_pct, tilt_deg, now_us);
         let stats = {

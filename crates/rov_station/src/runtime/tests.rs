@@ -141,7 +141,9 @@ fn g1_a_gui_that_stalls_for_2_s_misses_no_control_tick() {
     let video = h.video().unwrap().status();
     assert!(video.recording, "{video:?}");
     assert!(h.stop_recording());
-    wait_for(&h, "the recording to stop", 10.0, |v| v.recording.path.is_none());
+    wait_for(&h, "the recording to stop", 10.0, |v| {
+        v.recording.path.is_none()
+    });
     let session = rov_session::open(&rec).unwrap();
     let frames = session.count("/camera/video");
     assert!(frames >= 50, "{frames} video frames recorded ({video:?})");

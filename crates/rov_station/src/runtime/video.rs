@@ -367,7 +367,12 @@ impl StationVideo {
         match crate::runtime::video_replay::ReplayVideo::start(session) {
             Ok(Some(r)) => {
                 let slot = Some(r.slot());
-                Self::new("session".into(), Kind::Replay(r), slot, TimeSource::monotonic())
+                Self::new(
+                    "session".into(),
+                    Kind::Replay(r),
+                    slot,
+                    TimeSource::monotonic(),
+                )
             }
             Ok(None) => Self::off(),
             Err(e) => Self::failed("session", format!("recorded video: {e}")),
@@ -376,7 +381,13 @@ impl StationVideo {
 
     /// Virtual time: renders a frame if one is due at `now_us` (every 40 ms), shows it and
     /// encodes it while recording (waiting for the encoder: nothing is dropped).
-    pub fn virtual_tick(&self, truth: &rov_sim::TruthState, lights_pct: f64, tilt_deg: f64, now_us: u64) {
+    pub fn virtual_tick(
+        &self,
+        truth: &rov_sim::TruthState,
+        lights_pct: f64,
+        tilt_deg: f64,
+        now_us: u64,
+    ) {
         let Kind::Virtual(m) = &self.kind else {
             return;
         };
@@ -415,7 +426,8 @@ impl StationVideo {
             let pushed = r.pushed.fetch_add(1, Ordering::Relaxed) + 1;
             // x264 at zero latency gives one unit per frame: wait for it (bounded).
             let until = std::time::Instant::now() + Duration::from_secs(2);
-            while r.delivered.load(Ordering::Acquire) < pushed && std::time::Instant::now() < until {
+            while r.delivered.load(Ordering::Acquire) < pushed && std::time::Instant::now() < until
+            {
                 std::thread::sleep(Duration::from_micros(200));
             }
         }
@@ -522,7 +534,10 @@ impl StationVideo {
         let enc = lock(&self.record.encoder).take();
         match enc {
             None => Ok(None),
-            Some(e) => e.finish(FINISH_TIMEOUT).map(Some).map_err(|e| e.to_string()),
+            Some(e) => e
+                .finish(FINISH_TIMEOUT)
+                .map(Some)
+                .map_err(|e| e.to_string()),
         }
     }
 
