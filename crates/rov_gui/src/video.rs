@@ -240,7 +240,7 @@ pub(crate) fn link_rows(app: &StationApp, ui: &mut Ui) {
     ui.label(egui::RichText::new(text).monospace());
     ui.end_row();
     if let Some((p50, p99)) = app.video_pane.latency_ms() {
-        ui.label("Capture→screen");
+        ui.label("Capture to screen");
         ui.label(egui::RichText::new(format!("{p50:.0} ms (p99 {p99:.0} ms)")).monospace());
         ui.end_row();
     }
