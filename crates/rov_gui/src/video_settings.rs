@@ -66,23 +66,25 @@ pub(crate) fn video_section(
     if let Err(e) = &check {
         ui.label(RichText::new(e).small().color(theme::AMBER));
     }
-    if ui
-        .add_enabled(check.is_ok(), egui::Button::new("Save video settings"))
-        .clicked()
-    {
-        *message = Some(match save_video(target, video) {
-            Ok(()) => format!(
-                "video settings saved to {}; they apply from the next connection",
-                target.display()
-            ),
-            Err(e) => format!("cannot save: {e}"),
-        });
-    }
-    ui.label(
-        RichText::new("Applies from the next connection (Connection tab).")
-            .small()
-            .color(theme::DIM),
-    );
+    ui.horizontal(|ui| {
+        if ui
+            .add_enabled(check.is_ok(), egui::Button::new("Save video settings"))
+            .clicked()
+        {
+            *message = Some(match save_video(target, video) {
+                Ok(()) => format!(
+                    "video settings saved to {}; they apply from the next connection",
+                    target.display()
+                ),
+                Err(e) => format!("cannot save: {e}"),
+            });
+        }
+        ui.label(
+            RichText::new("applies from the next connection (Connection tab)")
+                .small()
+                .color(theme::DIM),
+        );
+    });
 }
 
 /// The Connection tab's capture devices: listed on demand (GStreamer's device monitor);
