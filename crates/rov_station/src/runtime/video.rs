@@ -137,6 +137,8 @@ pub struct VideoStatus {
     pub record_dropped: u64,
     /// Recording is encoding video now.
     pub recording: bool,
+    /// Why the current recording has no video (the encoder did not start).
+    pub record_error: Option<String>,
 }
 
 impl VideoStatus {
@@ -169,6 +171,11 @@ struct RecordSink {
     /// frame's unit, so units reach the file in time order with the telemetry).
     pushed: AtomicU64,
     delivered: Arc<AtomicU64>,
+    /// Recordings begun and ended so far: an encoder started on a helper thread is
+    /// installed only if its recording is still the current one.
+    generation: AtomicU64,
+    /// Why the last recording's encoder did not start.
+    error: Mutex<Option<String>>,
 }
 
 impl FrameSink for RecordSink {
@@ -497,30 +504,57 @@ impl StationVideo {
             stats,
             record_dropped: self.record.dropped.load(Ordering::Relaxed),
             recording: lock(&self.record.encoder).is_some(),
+            record_error: lock(&self.record.error).clone(),
         }
     }
 
     /// Starts encoding for a recording: every access unit goes to `tap` (the recorder's
-    /// queue). Nothing to do without video.
+    /// queue). Live, the encoder's GStreamer pipeline is built on a helper thread (tens
+    /// of ms the control thread must not spend; the first frames of the recording come
+    /// once it runs); on virtual time it is built here, so no frame is missed. Nothing to
+    /// do without video.
     ///
     /// # Errors
-    /// The encoder's message (x264 missing, pipeline refused): the recording goes on
-    /// without video.
+    /// The encoder's message (x264 missing, pipeline refused) on virtual time; live, the
+    /// same ends in [`VideoStatus::record_error`]. The recording goes on without video.
     pub fn begin_recording(&self, tap: VideoTap) -> Result<bool, String> {
         if !matches!(self.kind, Kind::Live(_) | Kind::Virtual(_)) || self.slot.is_none() {
             return Ok(false);
         }
-        let delivered = Arc::clone(&self.record.delivered);
-        self.record.pushed.store(0, Ordering::Relaxed);
-        delivered.store(0, Ordering::Relaxed);
-        let enc = Encoder::start(EncoderConfig::default(), move |au| {
-            tap.send(au);
-            delivered.fetch_add(1, Ordering::Release);
-        })
-        .map_err(|e| e.to_string())?;
-        self.record.dropped.store(0, Ordering::Relaxed);
-        if let Some(old) = lock(&self.record.encoder).replace(enc) {
-            let _ = old.finish(FINISH_TIMEOUT);
+        let record = Arc::clone(&self.record);
+        let generation = record.generation.fetch_add(1, Ordering::AcqRel) + 1;
+        record.pushed.store(0, Ordering::Relaxed);
+        record.delivered.store(0, Ordering::Relaxed);
+        record.dropped.store(0, Ordering::Relaxed);
+        *lock(&record.error) = None;
+        let start = move || -> Result<(), String> {
+            let delivered = Arc::clone(&record.delivered);
+            let enc = Encoder::start(EncoderConfig::default(), move |au| {
+                tap.send(au);
+                delivered.fetch_add(1, Ordering::Release);
+            })
+            .map_err(|e| format!("recording without video: {e}"))?;
+            let mut slot = lock(&record.encoder);
+            // A recording that ended meanwhile drops the new encoder unused.
+            if record.generation.load(Ordering::Acquire) == generation
+                && let Some(old) = slot.replace(enc)
+            {
+                let _ = old.finish(FINISH_TIMEOUT);
+            }
+            Ok(())
+        };
+        if matches!(self.kind, Kind::Virtual(_)) {
+            start()?;
+        } else {
+            let record = Arc::clone(&self.record);
+            std::thread::Builder::new()
+                .name("station-video-encoder-start".into())
+                .spawn(move || {
+                    if let Err(e) = start() {
+                        *lock(&record.error) = Some(e);
+                    }
+                })
+                .map_err(|e| format!("cannot start the video encoder's thread: {e}"))?;
         }
         Ok(true)
     }
@@ -531,6 +565,7 @@ impl StationVideo {
     /// # Errors
     /// The encoder's failure.
     pub fn end_recording(&self) -> Result<Option<rov_video::EncoderStats>, String> {
+        self.record.generation.fetch_add(1, Ordering::AcqRel);
         let enc = lock(&self.record.encoder).take();
         match enc {
             None => Ok(None),
