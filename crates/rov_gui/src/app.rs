@@ -178,6 +178,14 @@ pub struct StationApp {
     pub(crate) main_view: Option<Box<dyn crate::fly::MainView>>,
     /// The V key's choice: the instrument-only layout even when a main view exists.
     pub(crate) instruments_only: bool,
+    /// The camera picture's texture and latency figures.
+    pub(crate) video_pane: crate::video::VideoPane,
+    /// The `[video]` settings being edited (Settings tab, Connection tab's devices).
+    pub(crate) video_settings: rov_station::runtime::video::VideoSettings,
+    /// The Model lab's camera frame.
+    pub(crate) lab_video: crate::lab_video::LabVideo,
+    /// Capture devices found (Connection tab), or why the listing failed.
+    pub(crate) capture_devices: Option<Result<Vec<rov_video::CaptureDevice>, String>>,
     /// What the last frame laid out (for the clipping checks).
     pub(crate) layout: crate::layout::LayoutAudit,
     /// The station configuration file the Settings tab saves to.
@@ -244,6 +252,10 @@ impl StationApp {
             recordings: Vec::new(),
             main_view: None,
             instruments_only: false,
+            video_pane: crate::video::VideoPane::default(),
+            video_settings: rov_station::runtime::video::VideoSettings::default(),
+            capture_devices: None,
+            lab_video: crate::lab_video::LabVideo::default(),
             layout: crate::layout::LayoutAudit::default(),
             config_path: None,
             alarm_limits: rov_station::runtime::AlarmConfig::default(),
@@ -280,6 +292,30 @@ impl StationApp {
         self.alarm_limits = alarms;
         self.station = station;
         self
+    }
+
+    /// The `[video]` settings from the station configuration (the Settings tab edits
+    /// them, the Connection tab's device choice is saved into them).
+    #[must_use]
+    pub fn with_video_settings(
+        mut self,
+        video: rov_station::runtime::video::VideoSettings,
+    ) -> Self {
+        self.video_settings = video;
+        self
+    }
+
+    /// The `[video]` settings as edited.
+    #[must_use]
+    pub fn video_settings(&self) -> &rov_station::runtime::video::VideoSettings {
+        &self.video_settings
+    }
+
+    /// Capture-to-screen latency of the shown video (median, p99), ms, and frames
+    /// uploaded.
+    #[must_use]
+    pub fn video_figures(&self) -> (Option<(f64, f64)>, u64) {
+        (self.video_pane.latency_ms(), self.video_pane.uploads())
     }
 
     /// The gamepad map and stick shaping from the station configuration.
@@ -600,7 +636,7 @@ impl StationApp {
         if let Some(c) = step {
             self.replay_cmd(c);
         }
-        if toggle_view && self.main_view.is_some() {
+        if toggle_view && (self.main_view.is_some() || crate::video::shown_video(self).is_some()) {
             self.instruments_only = !self.instruments_only;
         }
         let (sticks, space, esc, gain, hold_d, hold_h) = ui.input(|i| {

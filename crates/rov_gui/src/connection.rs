@@ -1,5 +1,5 @@
 //! The Connection tab: simulator or a serial port; the port list; autodetect by ping (in
-//! the background); connect (only while disarmed).
+//! the background); connect (only while disarmed); the camera's capture devices.
 
 use std::sync::mpsc::Receiver;
 
@@ -128,4 +128,5 @@ pub(crate) fn connection_tab(app: &mut StationApp, ui: &mut Ui) {
         }
     });
     ui.label(format!("Now: {:?}", app.live_view.source));
+    crate::video_settings::devices(app, ui);
 }

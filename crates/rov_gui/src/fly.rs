@@ -57,12 +57,22 @@ fn main_area(app: &mut StationApp, ui: &mut Ui) {
     let rect = ui.available_rect_before_wrap();
     app.layout.main_rect = Some(rect);
     let v = app.shown().0.clone();
-    let picture = !app.instruments_only && app.main_view.is_some();
+    let video = crate::video::shown_video(app);
+    let picture = !app.instruments_only && (app.main_view.is_some() || video.is_some());
     if let (true, Some(mv)) = (picture, app.main_view.as_mut()) {
         mv.paint(ui, rect, &v);
         instruments::set_overlay(ui, true);
         hud_overlay(app, ui, rect, &v);
         instruments::set_overlay(ui, false);
+    } else if let (true, Some(video)) = (picture, video) {
+        // The camera: the picture, the HUD over it, the status strip on backplates.
+        let status = video.status();
+        app.video_pane.paint(ui, rect, &video, &status);
+        instruments::set_overlay(ui, true);
+        hud_overlay(app, ui, rect, &v);
+        instruments::set_overlay(ui, false);
+        let latency = app.video_pane.latency_ms();
+        crate::video::status_strip(ui, rect, &v, &status, latency);
     } else {
         instrument_layout(app, ui, &v);
     }
@@ -178,9 +188,10 @@ fn hud_overlay(app: &mut StationApp, ui: &mut Ui, rect: Rect, v: &StationView) {
         pos2(rect.max.x - 150.0 - m, rect.max.y - 170.0 - m),
         rect.max - vec2(m, m),
     );
+    // The bottom 30 px stay free for the status strip (REC, link, video, alarms).
     let mid = Rect::from_min_max(
         pos2(left.max.x + m, top.max.y + m),
-        pos2(bars.min.x - m, rect.max.y - m),
+        pos2(bars.min.x - m, rect.max.y - m - 30.0),
     );
     ui.scope_builder(UiBuilder::new().max_rect(top), |ui| {
         heading_tape(app, ui, v, top.size());

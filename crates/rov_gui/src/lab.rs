@@ -521,6 +521,8 @@ pub(crate) fn lab_tab(app: &mut StationApp, ui: &mut Ui) {
     if let Some(e) = &lab.error {
         ui.label(RichText::new(e).color(theme::RED));
     }
+    crate::lab_video::panel(app, ui);
+    let lab = &mut app.lab;
     ui.separator();
     let mut add: Option<EffectId> = None;
     let mut remove: Option<EffectId> = None;

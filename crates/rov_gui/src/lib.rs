@@ -22,6 +22,7 @@ pub mod fly;
 mod help;
 pub mod instruments;
 pub mod lab;
+mod lab_video;
 pub mod layout;
 mod pad_page;
 mod panels;
@@ -31,6 +32,8 @@ pub mod screenshot;
 pub mod sessions;
 pub mod settings;
 pub mod theme;
+pub mod video;
+mod video_settings;
 
 use std::path::{Path, PathBuf};
 use std::sync::mpsc::{Receiver, channel};

@@ -345,6 +345,7 @@ pub(crate) fn link_panel(app: &StationApp, ui: &mut Ui) {
             ui.label("Last good frame");
             ui.label(RichText::new(opt(l.last_good_age_s, 2, "s ago")).monospace());
             ui.end_row();
+            crate::video::link_rows(app, ui);
             if let Some(p) = &l.port {
                 ui.label("Port");
                 ui.label(RichText::new(&p.path).monospace());

@@ -1,6 +1,6 @@
 //! The Settings tab: units, the serial port and baud rate, the recordings folder and
-//! recording on connection, the simulated link's fault rate, the alarm limits, and a
-//! place for the video settings (issue 12). Apply sends the alarm limits to the live
+//! recording on connection, the simulated link's fault rate, the alarm limits, and the
+//! video settings (see `video_settings`). Apply sends the alarm limits to the live
 //! station; Save writes `[alarms]` and `[station]` into the station configuration
 //! (`rov_station::runtime::settings::save`, which keeps the rest of the file).
 
@@ -109,18 +109,9 @@ fn limits_ordered(a: &AlarmConfig) -> Option<&'static str> {
     None
 }
 
-/// The video section (issue 12 fills it: source, device, recording).
-fn video_section(ui: &mut Ui) {
-    ui.label(RichText::new("Video").strong().color(theme::SCALE));
-    ui.label(
-        RichText::new("No camera yet: the video settings (source, capture device, recording) come with the camera.")
-            .small()
-            .color(theme::DIM),
-    );
-}
-
 pub(crate) fn settings_tab(app: &mut StationApp, ui: &mut Ui) {
     let armed = app.live_view.snapshot.armed;
+    let target = app.config_target();
     crate::layout::scroll(app, ui, "settings_scroll", |app, ui| {
         let mut choose_folder = false;
         ui.columns(2, |cols| {
@@ -192,7 +183,12 @@ pub(crate) fn settings_tab(app: &mut StationApp, ui: &mut Ui) {
             });
             left.checkbox(&mut s.record_on_connect, "Record every new connection");
             left.separator();
-            video_section(left);
+            crate::video_settings::video_section(
+                left,
+                &mut app.video_settings,
+                &target,
+                &mut app.message,
+            );
 
             right.label(RichText::new("Alarm limits").strong().color(theme::SCALE));
             alarm_limits(right, &mut app.alarm_limits);

@@ -62,6 +62,8 @@ pub mod settings;
 pub mod shaping;
 mod sim;
 pub mod timing;
+pub mod video;
+pub mod video_replay;
 pub mod view;
 
 #[cfg(test)]
@@ -128,6 +130,8 @@ pub struct RuntimeConfig {
     pub record_blocking: bool,
     /// Re-connection of a serial port that vanished (backoff, by-id names, scanning).
     pub reconnect: ReconnectSettings,
+    /// The camera (`[video]`, `--video`); none by default.
+    pub video: video::VideoSettings,
 }
 
 impl Default for RuntimeConfig {
@@ -148,6 +152,7 @@ impl Default for RuntimeConfig {
             keyboard_timeout_us: 300_000,
             record_blocking: false,
             reconnect: ReconnectSettings::default(),
+            video: video::VideoSettings::none(),
         }
     }
 }
@@ -406,6 +411,7 @@ pub struct StationHandle {
     shared: Arc<Shared>,
     tx: SyncSender<RuntimeCommand>,
     threads: Vec<JoinHandle<()>>,
+    video: Option<Arc<video::StationVideo>>,
 }
 
 impl StationHandle {
@@ -418,7 +424,21 @@ impl StationHandle {
             shared,
             tx,
             threads,
+            video: None,
         }
+    }
+
+    /// The same handle with its camera.
+    pub(crate) fn with_video(mut self, video: Arc<video::StationVideo>) -> Self {
+        self.video = Some(video);
+        self
+    }
+
+    /// The station's camera (live, virtual or the recorded video of a replay); `None`
+    /// when it has none.
+    #[must_use]
+    pub fn video(&self) -> Option<&Arc<video::StationVideo>> {
+        self.video.as_ref()
     }
 
     /// The latest station snapshot (a copy).
@@ -523,6 +543,9 @@ impl StationHandle {
         self.shared.running.store(false, Ordering::Relaxed);
         for t in self.threads.drain(..) {
             let _ = t.join();
+        }
+        if let Some(v) = &self.video {
+            v.stop();
         }
     }
 }

@@ -93,6 +93,11 @@ pub struct RecordArgs {
     /// Print the summary as JSON on stdout.
     #[arg(long)]
     json: bool,
+    /// The camera recorded on /camera/video: sim (the simulator's camera, also on
+    /// virtual time with --fast), test (a GStreamer test pattern, real time only) or
+    /// none.
+    #[arg(long, value_name = "SOURCE", default_value = "sim")]
+    video: String,
 }
 
 /// Stick positions in a script.
@@ -335,11 +340,35 @@ impl<'a> Pilot<'a> {
     }
 }
 
-fn runtime_config(seed: u64, config: Option<&std::path::Path>) -> anyhow::Result<RuntimeConfig> {
-    Ok(RuntimeConfig {
+fn runtime_config(
+    seed: u64,
+    video: &str,
+    config: Option<&std::path::Path>,
+) -> anyhow::Result<RuntimeConfig> {
+    let mut cfg = RuntimeConfig {
         gamepad: false,
         sim_seed: seed,
         ..crate::cmd_station::config(None, config)?
+    };
+    cfg.video.source = video.to_string();
+    Ok(cfg)
+}
+
+/// The camera's figures for the summary; a source that did not start is said on stderr.
+fn video_json(handle: &StationHandle) -> serde_json::Value {
+    let Some(v) = handle.video() else {
+        return serde_json::Value::Null;
+    };
+    let s = v.status();
+    if let Some(e) = &s.error {
+        eprintln!("warning: {e}; recorded without video");
+    }
+    serde_json::json!({
+        "source": s.source,
+        "error": s.error,
+        "frames": s.stats.as_ref().map(|x| x.frames),
+        "fps": s.stats.as_ref().map(|x| x.fps),
+        "encoder_dropped": s.record_dropped,
     })
 }
 
@@ -367,18 +396,29 @@ pub fn run(args: RecordArgs, config: Option<&std::path::Path>) -> anyhow::Result
     if let Some(dir) = args.out.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     }
-    let cfg = runtime_config(args.seed, config)?;
+    if !["sim", "test", "none"].contains(&args.video.as_str()) {
+        bail!(
+            "--video {}: headless recording takes sim, test or none",
+            args.video
+        );
+    }
+    if args.fast && args.video == "test" {
+        bail!("--video test runs on wall time; with --fast (virtual time) use --video sim or none");
+    }
+    let cfg = runtime_config(args.seed, &args.video, config)?;
     let wall = Instant::now();
-    let (refused_arm, control) = if args.fast {
-        (record_fast(cfg, &args, script)?, serde_json::Value::Null)
+    let (refused_arm, control, video) = if args.fast {
+        record_fast(cfg, &args, script)?
     } else {
         record_real_time(cfg, &args, script)?
     };
     let wall_s = wall.elapsed().as_secs_f64();
-    summarize(&args, wall_s, refused_arm, control)
+    summarize(&args, wall_s, refused_arm, control, video)
 }
 
-fn record_fast(cfg: RuntimeConfig, args: &RecordArgs, script: Script) -> anyhow::Result<bool> {
+type Outcome = (bool, serde_json::Value, serde_json::Value);
+
+fn record_fast(cfg: RuntimeConfig, args: &RecordArgs, script: Script) -> anyhow::Result<Outcome> {
     let (mut station, handle) = VirtualStation::new(cfg).context("starting the station")?;
     handle.start_recording(&args.out);
     let mut pilot = Pilot::new(&handle, script);
@@ -397,8 +437,9 @@ fn record_fast(cfg: RuntimeConfig, args: &RecordArgs, script: Script) -> anyhow:
     station.finish();
     let refused = pilot.refused_arm;
     drop(pilot);
+    let video = video_json(&handle);
     handle.shutdown();
-    Ok(refused)
+    Ok((refused, serde_json::Value::Null, video))
 }
 
 /// The control loop's timing of a real-time run: ticks, missed ticks (started 20 ms or
@@ -424,7 +465,7 @@ fn record_real_time(
     cfg: RuntimeConfig,
     args: &RecordArgs,
     script: Script,
-) -> anyhow::Result<(bool, serde_json::Value)> {
+) -> anyhow::Result<Outcome> {
     let handle = Runtime::start(cfg).context("starting the station")?;
     handle.start_recording(&args.out);
     let mut pilot = Pilot::new(&handle, script);
@@ -445,9 +486,10 @@ fn record_real_time(
     let refused = pilot.refused_arm;
     drop(pilot);
     let control = control_json(&handle);
+    let video = video_json(&handle);
     // Shutting down finishes the recording (footer written) before the threads stop.
     handle.shutdown();
-    Ok((refused, control))
+    Ok((refused, control, video))
 }
 
 /// Prints what was recorded, from the file's summary section (its statistics and index:
@@ -457,6 +499,7 @@ fn summarize(
     wall_s: f64,
     refused_arm: bool,
     control: serde_json::Value,
+    video: serde_json::Value,
 ) -> anyhow::Result<ExitCode> {
     let session = rov_session::open(&args.out)
         .with_context(|| format!("reading back {}", args.out.display()))?;
@@ -482,6 +525,7 @@ fn summarize(
             "armed_as_scripted": !refused_arm,
             "topics": topics,
             "control": control,
+            "video": video,
         });
         println!("{j}");
     } else {

@@ -7,6 +7,12 @@
 //!   screenshot of itself (eframe viewport screenshot), saves it as PNG and closes; the
 //!   exit status says whether the PNG was written (used by the Xvfb test).
 //!
+//! * `--video SOURCE`: the camera (see `rov_station::runtime::video`); default the
+//!   `[video] source` of the settings (`auto`: the simulator's camera with the simulated
+//!   vehicle, the first capture device with `--port`, else none). A source that does not
+//!   start never stops the window from opening: the Fly view says NO VIDEO with the
+//!   source and what is missing, and so does stderr.
+//!
 //! The settings (control, alarms, the pilot's `[station]` table, stick shaping and the
 //! gamepad map) come from `--config PATH`, else the user's `station.toml` in the
 //! platform's configuration directory, else the built-in defaults (see
@@ -68,6 +74,7 @@ pub fn config_and_settings(
             sim_faults,
             shaping: pilot.shaping,
             pad_map: pilot.pad,
+            video: pilot.video,
             ..RuntimeConfig::default()
         },
         station,
@@ -85,6 +92,7 @@ fn parse_size(s: &str) -> Option<[f32; 2]> {
 /// Opens the station window; see the module docs.
 pub fn run_station(
     port: Option<String>,
+    video: Option<String>,
     config_path: Option<&std::path::Path>,
     record_to: Option<PathBuf>,
     screenshot: Option<(PathBuf, f64)>,
@@ -103,13 +111,21 @@ pub fn run_station(
     if !explicit_port && !station.serial_port.trim().is_empty() {
         cfg.connection = Connection::Serial(station.serial_port.trim().to_string());
     }
+    if let Some(v) = video {
+        cfg.video.source = v;
+    }
     let recordings = record_to
         .clone()
         .unwrap_or_else(|| PathBuf::from("recordings"));
     cfg.recordings_dir = Some(recordings.clone());
     let backend = RealBackend::new(cfg.clone(), recordings);
     let (live, error) = match Runtime::start(cfg.clone()) {
-        Ok(h) => (Some(h), None),
+        Ok(h) => {
+            if let Some(e) = h.video().and_then(|v| v.status().error) {
+                eprintln!("warning: {e}; the station runs without video");
+            }
+            (Some(h), None)
+        }
         Err(e) => (None, Some(format!("cannot start the station: {e}"))),
     };
     // Every connection records from its start (the app starts it, with the same file
@@ -117,7 +133,8 @@ pub fn run_station(
     let mut app = StationApp::new(Box::new(backend), None)
         .with_record_on_connect(record_to.is_some() && station.record_on_connect)
         .with_settings(save_to, cfg.alarms, station)
-        .with_gamepad(cfg.pad_map.clone(), cfg.shaping);
+        .with_gamepad(cfg.pad_map.clone(), cfg.shaping)
+        .with_video_settings(cfg.video.clone());
     app.connect_handle(live);
     if let Some(e) = error {
         eprintln!("warning: {e}");

@@ -6,6 +6,7 @@
 //! directory, else built in ([`config_file`]); the binary needs no file beside it.
 
 mod cmd_export;
+mod cmd_export_video;
 mod cmd_hold;
 mod cmd_import;
 mod cmd_lab;
@@ -51,6 +52,12 @@ struct Cli {
     /// Test hook: seconds to wait before the screenshot.
     #[arg(long, value_name = "S", hide = true, default_value_t = 3.0)]
     screenshot_after_s: f64,
+    /// The camera: sim (default with the simulated vehicle), none, test (a GStreamer
+    /// test pattern), v4l2:/dev/videoN, a URI (rtsp://, udp://[HOST]:PORT, file:///) or
+    /// a GStreamer pipeline ending in a raw-video element. With --port the default is
+    /// the first capture device found, else none. Overrides `[video] source`.
+    #[arg(long, value_name = "SOURCE")]
+    video: Option<String>,
     /// Window size, WIDTHxHEIGHT (default 1280x800).
     #[arg(long, value_name = "WxH", hide = true)]
     window_size: Option<String>,
@@ -66,7 +73,7 @@ enum Command {
     Hold(cmd_hold::HoldArgs),
     /// Replay a recorded session headlessly and fit a model to it.
     Replay(cmd_replay::ReplayArgs),
-    /// Export a session to the measurement CSV format (plus every decoded channel).
+    /// Export a session: measurement CSV (plus every decoded channel) and/or camera video (MP4 + .ass).
     Export(cmd_export::ExportArgs),
     /// Import a measurement CSV as a session.
     Import(cmd_import::ImportArgs),
@@ -92,6 +99,7 @@ fn main() -> std::process::ExitCode {
         Some(Command::Lab(args)) => cmd_lab::run(args),
         None => cmd_station::run_station(
             cli.port,
+            cli.video,
             cli.config.as_deref(),
             (!cli.no_record).then_some(cli.recordings),
             cli.screenshot.map(|p| (p, cli.screenshot_after_s)),

@@ -120,7 +120,12 @@ pub fn rig(rec_name: &str) -> Rig {
 }
 
 pub fn rig_sized(rec_name: &str, size: egui::Vec2) -> Rig {
-    let (st, handle) = VirtualStation::new(config()).unwrap();
+    rig_config(rec_name, size, config())
+}
+
+/// A rig on a station of the given configuration (e.g. with the sim camera).
+pub fn rig_config(rec_name: &str, size: egui::Vec2, cfg: RuntimeConfig) -> Rig {
+    let (st, handle) = VirtualStation::new(cfg).unwrap();
     let shared = Shared::default();
     let rec = tmp(rec_name);
     let _ = std::fs::create_dir_all(rec.parent().unwrap());
@@ -288,7 +293,12 @@ impl Rig {
         out.extend(
             self.harness
                 .query_all_by_label_contains("Recordings in")
-                .map(|n| n.rect()),
+                // To the right edge: the folder's width depends on where the repository
+                // is checked out, so a mask of the label's own width would not match.
+                .map(|n| {
+                    let r = n.rect();
+                    egui::Rect::from_min_max(r.min, egui::pos2(r.min.x + 4000.0, r.max.y))
+                }),
         );
         out
     }

@@ -62,6 +62,8 @@ pub(crate) struct Engine {
     recorder: Option<Recorder>,
     /// Live sim mode: the vehicle thread's latest truth, for `/truth/state`.
     truth_tap: Option<rov_vehicle::runner::TruthTap>,
+    /// The camera (see `video`): the recording's encoder starts and stops with it.
+    video: Option<Arc<crate::runtime::video::StationVideo>>,
     /// Serial mode: the port's state and re-connection (see `reconnect`).
     pub(crate) port: Option<crate::runtime::reconnect::PortMonitor>,
     shared: Arc<Shared>,
@@ -205,6 +207,7 @@ impl Engine {
             tilt_deg: 0,
             focus_pct: 0,
             recorder: None,
+            video: None,
             truth_tap: None,
             port: None,
             shared,
@@ -251,6 +254,11 @@ impl Engine {
     /// Records `/truth/state` from the simulated vehicle's thread (live sim mode).
     pub fn attach_truth_tap(&mut self, tap: rov_vehicle::runner::TruthTap) {
         self.truth_tap = Some(tap);
+    }
+
+    /// The camera whose video recordings hold.
+    pub fn attach_video(&mut self, video: Arc<crate::runtime::video::StationVideo>) {
+        self.video = Some(video);
     }
 
     /// Records the attached tap's latest truth, at most one vehicle-runner wake-up
@@ -476,7 +484,19 @@ impl Engine {
         match Recorder::start(path, &info, now_us, self.cfg.record_blocking) {
             Ok(r) => {
                 self.last_record_ns.set(0);
+                let video = self
+                    .video
+                    .as_ref()
+                    .map(|v| v.begin_recording(r.video_tap()));
                 self.recorder = Some(r);
+                if let Some(Err(e)) = video {
+                    self.event(
+                        now_us,
+                        "recording",
+                        Severity::Warning,
+                        format!("recording without video: {e}"),
+                    );
+                }
                 let v = &mut self.pipeline.view.recording;
                 v.path = Some(path.to_path_buf());
                 v.error = None;
@@ -504,6 +524,15 @@ impl Engine {
             return;
         };
         let path = r.path().to_path_buf();
+        // The encoder's last units reach the queue before the writer finishes.
+        if let Some(Err(e)) = self.video.as_ref().map(|v| v.end_recording()) {
+            self.event(
+                now_us,
+                "recording",
+                Severity::Warning,
+                format!("video recording ended with an error: {e}"),
+            );
+        }
         let result = r.stop();
         let v = &mut self.pipeline.view.recording;
         v.path = None;

@@ -122,6 +122,20 @@ pub(crate) fn start(cfg: RuntimeConfig, models: ModelSet) -> Result<StationHandl
         };
     let (source_half, sink_half) = transport.split()?;
     let mut engine = Engine::new(cfg.clone(), models, Arc::clone(&shared), source)?;
+    // The camera on threads of its own (see `video`); the sim camera follows the truth
+    // and the lights and tilt of the last control frame sent.
+    let video = Arc::new(crate::runtime::video::StationVideo::start_live(
+        &cfg.video,
+        &cfg.connection,
+        {
+            let clock = shared.clock;
+            move || clock.now_us().saturating_mul(1000)
+        },
+        truth_tap
+            .clone()
+            .map(|tap| sim_pose(tap, Arc::clone(&shared))),
+    ));
+    engine.attach_video(Arc::clone(&video));
     if let Some(tap) = truth_tap {
         engine.attach_truth_tap(tap);
     }
@@ -194,7 +208,21 @@ pub(crate) fn start(cfg: RuntimeConfig, models: ModelSet) -> Result<StationHandl
             },
         )?);
     }
-    Ok(StationHandle::new(shared, cmd_tx, threads))
+    Ok(StationHandle::new(shared, cmd_tx, threads).with_video(video))
+}
+
+/// The simulator camera's pose and lights: the vehicle thread's latest truth, the
+/// camera tilt and lights of the last control frame sent (never waits for the control
+/// thread; the truth lock is held for a copy).
+fn sim_pose(tap: TruthTap, shared: Arc<Shared>) -> crate::runtime::video::PoseSource {
+    Box::new(move || {
+        let truth = (*tap.lock().ok()?)?;
+        let sent = watchdog_block(shared.watchdog_kept.load(Ordering::Relaxed));
+        Some((
+            crate::runtime::video::pose_of_truth(&truth, f64::from(sent.tilt_deg)),
+            f64::from(sent.lights_pct),
+        ))
+    })
 }
 
 fn rx_loop(mut source: Box<dyn ByteSource>, out: &SyncSender<Rx>, shared: &Shared) {

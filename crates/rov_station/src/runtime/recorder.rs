@@ -39,6 +39,8 @@ pub enum RecordItem {
     Event(u64, EventRecord),
     /// `/truth/state` (simulated vehicle only).
     Truth(u64, TruthRecord),
+    /// `/camera/video`: one H.264 access unit (Annex B) and whether it is a key frame.
+    Video(u64, bool, Vec<u8>),
 }
 
 /// Queue capacity, items (about 1.5 s of everything at 50 Hz).
@@ -50,6 +52,47 @@ struct Counters {
     written: AtomicU64,
     dropped: AtomicU64,
     failed: AtomicBool,
+    /// Video units refused by the writer (malformed, too large): skipped, the
+    /// recording goes on.
+    video_skipped: AtomicU64,
+}
+
+/// The recorder's input for the video encoder's access units (they arrive on
+/// GStreamer's thread, not the control thread). Live: never waits (a full queue drops
+/// the unit, counted); virtual time: waits. Recording time = capture time (station clock)
+/// − the recording's start. Once the recording stops, units are ignored.
+#[derive(Debug, Clone)]
+pub struct VideoTap {
+    tx: Arc<std::sync::Mutex<Option<SyncSender<RecordItem>>>>,
+    started_ns: u64,
+    blocking: bool,
+    counters: Arc<Counters>,
+}
+
+impl VideoTap {
+    /// Queues one access unit whose `pts_ns` is on the station clock.
+    pub fn send(&self, au: rov_video::AccessUnit) {
+        let t = au.pts_ns.saturating_sub(self.started_ns);
+        let item = RecordItem::Video(t, au.key_frame, au.data);
+        let g = self
+            .tx
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        let Some(tx) = g.as_ref() else {
+            return;
+        };
+        let ok = if self.blocking {
+            tx.send(item).is_ok()
+        } else {
+            tx.try_send(item).is_ok()
+        };
+        let c = if ok {
+            &self.counters.queued
+        } else {
+            &self.counters.dropped
+        };
+        c.fetch_add(1, Ordering::Relaxed);
+    }
 }
 
 /// A running recorder.
@@ -57,6 +100,8 @@ struct Counters {
 pub struct Recorder {
     path: PathBuf,
     tx: Option<SyncSender<RecordItem>>,
+    /// The video encoder's way in (emptied on stop, so the writer thread ends).
+    video_tx: Arc<std::sync::Mutex<Option<SyncSender<RecordItem>>>>,
     counters: Arc<Counters>,
     error: Arc<std::sync::Mutex<Option<String>>>,
     join: Option<JoinHandle<Result<WriteSummary, String>>>,
@@ -88,6 +133,7 @@ impl Recorder {
             .map_err(|e| format!("cannot start the recorder thread: {e}"))?;
         Ok(Self {
             path: path.to_path_buf(),
+            video_tx: Arc::new(std::sync::Mutex::new(Some(tx.clone()))),
             tx: Some(tx),
             counters,
             error,
@@ -113,6 +159,30 @@ impl Recorder {
     #[must_use]
     pub const fn t_ns(&self, now_us: u64) -> u64 {
         now_us.saturating_sub(self.started_us).saturating_mul(1000)
+    }
+
+    /// The way in for the video encoder's access units (see [`VideoTap`]).
+    #[must_use]
+    pub fn video_tap(&self) -> VideoTap {
+        VideoTap {
+            tx: Arc::clone(&self.video_tx),
+            started_ns: self.started_us.saturating_mul(1000),
+            blocking: self.blocking,
+            counters: Arc::clone(&self.counters),
+        }
+    }
+
+    /// Video units the writer refused (malformed or too large), skipped.
+    #[must_use]
+    pub fn video_skipped(&self) -> u64 {
+        self.counters.video_skipped.load(Ordering::Relaxed)
+    }
+
+    fn close_video(&self) {
+        *self
+            .video_tx
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner) = None;
     }
 
     /// Queues an item; a full queue drops it (counted).
@@ -171,6 +241,7 @@ impl Recorder {
     /// The writer's error text.
     pub fn stop(mut self) -> Result<WriteSummary, String> {
         self.tx = None;
+        self.close_video();
         match self.join.take() {
             Some(j) => j
                 .join()
@@ -183,6 +254,7 @@ impl Recorder {
 impl Drop for Recorder {
     fn drop(&mut self) {
         self.tx = None;
+        self.close_video();
         if let Some(j) = self.join.take() {
             let _ = j.join();
         }
@@ -201,6 +273,7 @@ fn write_item(w: &mut SessionWriter, item: &RecordItem) -> rov_session::Result<(
         RecordItem::Link(t, r) => w.write(*t, r),
         RecordItem::Event(t, r) => w.write(*t, r),
         RecordItem::Truth(t, r) => w.write(*t, r),
+        RecordItem::Video(t, key, data) => w.write_video(*t, data, *key),
     }
 }
 
@@ -224,6 +297,13 @@ fn run(
                     match write_item(&mut w, &item) {
                         Ok(()) => {
                             counters.written.fetch_add(1, Ordering::Relaxed);
+                        }
+                        // A unit the writer refuses is skipped: the telemetry goes on.
+                        Err(
+                            rov_session::SessionError::Video { .. }
+                            | rov_session::SessionError::MessageTooLarge { .. },
+                        ) if matches!(item, RecordItem::Video(..)) => {
+                            counters.video_skipped.fetch_add(1, Ordering::Relaxed);
                         }
                         Err(e) => fail(e.to_string()),
                     }

@@ -240,6 +240,9 @@ pub(crate) struct ReplayEngine {
     warnings: Vec<String>,
     /// One control tick of the recording, s.
     tick_s: f64,
+    /// The recorded video, shown at the play-head (see `video_replay`).
+    video: Arc<crate::runtime::video::StationVideo>,
+    start_ns: u64,
 }
 
 impl Drop for ReplayEngine {
@@ -282,7 +285,10 @@ impl ReplayEngine {
             index_session(&session, models.clone(), &index, &cancel);
             None
         };
+        let video = Arc::new(crate::runtime::video::StationVideo::replay(session.clone()));
         let mut e = Self {
+            video,
+            start_ns,
             player: Playback::new(session),
             feed: Feed::new(Source::Replay(path.to_path_buf()), models, start_ns),
             index,
@@ -422,6 +428,10 @@ impl ReplayEngine {
             self.player.speed(),
             self.player.session().len(),
         );
+        self.video.show_at(
+            self.start_ns
+                .saturating_add((position_s.max(0.0) * 1e9).round() as u64),
+        );
         let v = &mut self.feed.pipeline.view;
         v.seq += 1;
         v.replay = Some(ReplayView {
@@ -451,9 +461,10 @@ pub(crate) fn start(path: &Path, models: ModelSet) -> Result<StationHandle, Runt
     let shared = Arc::new(Shared::new(20_000, MonoClock::new()));
     let (tx, rx) = command_channel();
     engine.publish(&shared);
+    let video = Arc::clone(&engine.video);
     let s = Arc::clone(&shared);
     let t = spawn_named("station-replay", move || replay_loop(engine, &rx, &s))?;
-    Ok(StationHandle::new(shared, tx, vec![t]))
+    Ok(StationHandle::new(shared, tx, vec![t]).with_video(video))
 }
 
 fn replay_loop(mut engine: ReplayEngine, rx: &Receiver<RuntimeCommand>, shared: &Shared) {
@@ -500,6 +511,7 @@ impl VirtualReplay {
     /// [`RuntimeError::Session`] if the file does not open.
     pub fn open(path: &Path) -> Result<(Self, StationHandle), RuntimeError> {
         let engine = ReplayEngine::open(path, ModelSet::load_default()?, false)?;
+        let video = Arc::clone(&engine.video);
         let shared = Arc::new(Shared::new(20_000, MonoClock::new()));
         let (tx, rx) = command_channel();
         let mut v = Self {
@@ -509,7 +521,10 @@ impl VirtualReplay {
             path: path.to_path_buf(),
         };
         v.engine.publish(&v.shared);
-        Ok((v, StationHandle::new(shared, tx, Vec::new())))
+        Ok((
+            v,
+            StationHandle::new(shared, tx, Vec::new()).with_video(video),
+        ))
     }
 
     /// The file.

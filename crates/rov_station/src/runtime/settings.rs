@@ -25,6 +25,8 @@ pub struct PilotSettings {
     pub pad: PadMap,
     /// `[gamepad.surge]`, `[gamepad.yaw]`, `[gamepad.vertical]`.
     pub shaping: StickShaping,
+    /// `[video]`.
+    pub video: crate::runtime::video::VideoSettings,
 }
 
 /// Depth unit shown.
@@ -163,6 +165,7 @@ pub fn load_all(text: &str, label: &str) -> Result<PilotSettings, ConfigError> {
         station: StationSettings::from_param_file(&f)?,
         pad: PadMap::from_param_file(&f)?,
         shaping: StickShaping::from_param_file(&f)?,
+        video: crate::runtime::video::VideoSettings::from_param_file(&f)?,
     };
     f.reject_unknown("gamepad")?;
     Ok(p)
@@ -197,6 +200,14 @@ pub fn save_gamepad(path: &Path, pad: &PadMap, shaping: &StickShaping) -> Result
     );
     // The button tables are replaced whole (a button unmapped must disappear).
     save_tables(path, &fresh, &["gamepad"])
+}
+
+/// Writes `[video]` into the file at `path` like [`save`].
+///
+/// # Errors
+/// A message naming the file.
+pub fn save_video(path: &Path, video: &crate::runtime::video::VideoSettings) -> Result<(), String> {
+    save_tables(path, &format!("[video]\n{}", video.to_toml()), &["video"])
 }
 
 fn save_tables(path: &Path, fresh: &str, tables: &[&str]) -> Result<(), String> {

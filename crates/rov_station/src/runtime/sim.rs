@@ -19,6 +19,7 @@ use crate::runtime::{
 
 struct App {
     engine: Engine,
+    video: Arc<crate::runtime::video::StationVideo>,
     cmds: Receiver<RuntimeCommand>,
     shared: Arc<Shared>,
     stopped: bool,
@@ -46,6 +47,11 @@ impl SimApp for App {
         }
         self.engine.tick(link, now_us);
         self.engine.record_truth(vehicle.sim().truth(), now_us);
+        let (lights_pct, tilt_deg) = link.last_control_sent().map_or((0.0, 0.0), |(_, c)| {
+            (f64::from(c.lights_pct), f64::from(c.tilt_deg))
+        });
+        self.video
+            .virtual_tick(vehicle.sim().truth(), lights_pct, tilt_deg, now_us);
         let stats = {
             let mut t = lock(&self.shared.ticks);
             t.record(now_us, now_us);
@@ -111,9 +117,12 @@ impl VirtualStation {
         link_cfg.record_frames = false;
         let link = Link::new(link_cfg)?;
         let vehicle = sim_vehicle(&cfg)?;
-        let engine = Engine::new(cfg, models, Arc::clone(&shared), Source::Sim)?;
+        let video = Arc::new(crate::runtime::video::StationVideo::virtual_sim(&cfg.video));
+        let mut engine = Engine::new(cfg, models, Arc::clone(&shared), Source::Sim)?;
+        engine.attach_video(Arc::clone(&video));
         let app = App {
             engine,
+            video: Arc::clone(&video),
             cmds: rx,
             shared: Arc::clone(&shared),
             stopped: false,
@@ -121,7 +130,7 @@ impl VirtualStation {
         let sim = SimLink::new(link, vehicle, period_us);
         Ok((
             Self { sim, app },
-            StationHandle::new(shared, tx, Vec::new()),
+            StationHandle::new(shared, tx, Vec::new()).with_video(video),
         ))
     }
 
