@@ -336,13 +336,10 @@ fn parse_summary(
             return p;
         }
     }
-    let mut overlaps = 0usize;
-    let mut latest_end = 0u64;
+    // Chunks that overlap in time are valid MCAP and normal for a live recording with
+    // video (its access units reach the writer tens of ms after the telemetry of the same
+    // moment); the reader merges by time, so they are not reported as a warning.
     for c in &chunk_indexes {
-        if c.start_ns < latest_end {
-            overlaps += 1;
-        }
-        latest_end = latest_end.max(c.end_ns);
         let ids: Vec<(u16, Option<u64>)> = chans
             .get(c.chans.0 as usize..c.chans.1 as usize)
             .unwrap_or(&[])
@@ -371,11 +368,6 @@ fn parse_summary(
         indexed: true,
         ..Opened::default()
     };
-    if overlaps > 0 {
-        opened.warnings.push(format!(
-            "{overlaps} chunks start earlier than a chunk before them ends; messages are merged by time"
-        ));
-    }
     for (off, len) in attachment_at {
         if len > MAX_ATTACHMENT_BYTES {
             opened.warnings.push(format!(
