@@ -43,6 +43,7 @@ pub mod guard;
 pub mod observer;
 pub mod pid;
 pub mod pilot;
+pub mod profile;
 pub mod reference;
 
 pub use allocation::{Allocation, ThrustDemand, allocate};
@@ -62,4 +63,5 @@ pub use pilot::{
     Axis, AxisMode, AxisState, ModeCommand, PilotInput, SurfaceTare, VehicleAutoTargets,
     depth_m_from_mbar, depth_target_mbar, heading_target_deg,
 };
+pub use profile::{ProfilePoint, TrackingProfile};
 pub use reference::{ReferenceConfig, ReferenceModel, ReferenceState};
