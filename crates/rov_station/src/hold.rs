@@ -24,11 +24,12 @@ use rov_driver::{Link, LinkConfig, LinkEvent};
 use rov_dynamics::InitialConditions;
 use rov_dynamics::current::CurrentModel;
 use rov_sim::{SimConfig, Simulator, TetherForce};
+use rov_types::angle::wrap_deg_360;
 use rov_vehicle::{SimApp, SimLink, Vehicle, VehicleConfig};
 use serde::Serialize;
 
 use crate::core::{StationCommand, StationCore};
-use crate::metrics::{StepMetrics, rmse_between, step_metrics, wrap_deg};
+use crate::metrics::{StepMetrics, rmse_between, step_metrics};
 
 /// Control period, µs (50 Hz).
 pub const TICK_US: u64 = 20_000;
@@ -102,7 +103,7 @@ impl HoldSpec {
             duration_s,
             profile: None,
             start_depth_m: depth_m - 2.0,
-            start_heading_deg: (heading_deg - 90.0).rem_euclid(360.0),
+            start_heading_deg: wrap_deg_360(heading_deg - 90.0),
             disturbance: Disturbance::None,
             feedforward: true,
             observer: true,
@@ -306,7 +307,7 @@ impl SimApp for App<'_> {
         self.trace.depth_true_m.push(eta.z);
         self.trace
             .heading_true_deg
-            .push(eta.b.to_degrees().rem_euclid(360.0));
+            .push(wrap_deg_360(eta.b.to_degrees()));
         self.trace
             .depth_meas_m
             .push(meas.map_or(f64::NAN, |m| m.depth_m));
@@ -328,7 +329,7 @@ impl SimApp for App<'_> {
         self.trace.depth_traj_m.push(d.depth.reference.pos);
         self.trace
             .heading_traj_deg
-            .push(d.heading.reference.pos.to_degrees().rem_euclid(360.0));
+            .push(wrap_deg_360(d.heading.reference.pos.to_degrees()));
         self.trace
             .depth_bias_n
             .push(d.depth.estimate.map_or(f64::NAN, |e| e.bias));
@@ -587,15 +588,4 @@ fn profile_tracking(
         depth_m: rmse_between(&d, &d_ref, false),
         heading_deg: rmse_between(&h, &h_ref, true),
     }
-}
-
-/// RMSE of a trace's values against its reference (for tracking tests).
-pub fn tracking_rmse(values: &[f64], reference: &[f64], angular: bool) -> f64 {
-    let e: Vec<f64> = values
-        .iter()
-        .zip(reference)
-        .map(|(v, r)| if angular { wrap_deg(v - r) } else { v - r })
-        .collect();
-    let zeros = vec![0.0; e.len()];
-    rmse_between(&e, &zeros, false)
 }

@@ -5,16 +5,21 @@ use anyhow::Context as _;
 use clap::{Args, ValueEnum};
 use rov_control::{ModelChoice, TrackingProfile};
 use rov_station::{Disturbance, HoldSpec, VehicleDynamics, run_hold};
+use rov_types::ModelId;
+use rov_types::angle::wrap_deg_360;
 
-/// Feedforward model.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum ModelArg {
-    /// Enevoldsen et al. 2018.
-    Model1,
-    /// Arnesen 2016.
-    Model2,
-    /// Mai et al. 2017.
-    Model3,
+/// `--model`: parsed as every model name is ([`rov_types::ModelId`]); `hold` takes the
+/// three shipped models (a model file for the feedforward is issue 14's next step).
+fn parse_model(s: &str) -> Result<ModelChoice, String> {
+    match s.parse::<ModelId>() {
+        Ok(ModelId::Base(b)) => Ok(b),
+        Ok(ModelId::File(p)) => Err(format!(
+            "{}: hold's feedforward takes model1, model2 or model3 (a model file is accepted \
+             by --vehicle)",
+            p.display()
+        )),
+        Err(e) => Err(e.to_string()),
+    }
 }
 
 /// Disturbance on the simulated vehicle.
@@ -48,9 +53,10 @@ pub enum OnOff {
 #[derive(Debug, Args)]
 #[command(allow_negative_numbers = true, after_long_help = PROFILE_HELP)]
 pub struct HoldArgs {
-    /// Model supplying the feedforward.
-    #[arg(long, value_enum)]
-    model: ModelArg,
+    /// Model supplying the feedforward: model1 (Enevoldsen et al. 2018), model2 (Arnesen
+    /// 2016) or model3 (Mai et al. 2017).
+    #[arg(long, value_parser = parse_model)]
+    model: ModelChoice,
     /// Depth target, m (positive down).
     #[arg(long)]
     depth_m: f64,
@@ -122,21 +128,17 @@ tracking_rmse compares the true depth and heading with this reference from engag
 hold time after the profile. The step metrics then describe the final step at 110 s.";
 
 pub fn run(args: HoldArgs) -> anyhow::Result<std::process::ExitCode> {
-    let model = match args.model {
-        ModelArg::Model1 => ModelChoice::Model1,
-        ModelArg::Model2 => ModelChoice::Model2,
-        ModelArg::Model3 => ModelChoice::Model3,
-    };
+    let model = args.model;
     let mut spec = HoldSpec::step(model, args.depth_m, args.heading_deg, args.duration_s);
     spec.profile = args.profile.map(|p| match p {
         ProfileArg::Survey => TrackingProfile::Survey,
     });
     let (default_start_depth_m, default_start_heading_deg) = if spec.profile.is_some() {
-        (args.depth_m, args.heading_deg.rem_euclid(360.0))
+        (args.depth_m, wrap_deg_360(args.heading_deg))
     } else {
         (
             (args.depth_m - 2.0).max(0.0),
-            (args.heading_deg - 90.0).rem_euclid(360.0),
+            wrap_deg_360(args.heading_deg - 90.0),
         )
     };
     spec.start_depth_m = args.start_depth_m.unwrap_or(default_start_depth_m);
