@@ -14,7 +14,8 @@
 //! 6. the output [`guard`], the only constructor of a [`ThrustCommand`]: finite, within
 //!    ±100 %, rate-limited.
 //!
-//! [`pilot`] holds the cruise-control mode logic (stick override, latch on release,
+//! [`profile`] has the fixed tracking profiles `topside hold --profile` flies (pure
+//! functions of time). [`pilot`] holds the cruise-control mode logic (stick override, latch on release,
 //! typed and stepped setpoints) and the targets for the vehicle's own auto-depth and
 //! auto-heading (CSR 0x0B/0x0D). [`config`] has the defaults and the `[control]` loader.
 //!
