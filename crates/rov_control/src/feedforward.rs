@@ -18,45 +18,10 @@
 
 use crate::error::ControlError;
 
-/// Which of the three published VideoRay models supplies the feedforward.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-pub enum ModelChoice {
-    /// Enevoldsen et al. 2018: decoupled 1-DOF equations with α/β tuning factors.
-    Model1,
-    /// Arnesen 2016: Fossen 3-DOF with a linear thrust map.
-    Model2,
-    /// Mai et al. 2017: 6-DOF Fossen model (its heave and yaw diagonal is used here).
-    #[default]
-    Model3,
-}
-
-impl ModelChoice {
-    /// All three, in order.
-    pub const ALL: [ModelChoice; 3] = [
-        ModelChoice::Model1,
-        ModelChoice::Model2,
-        ModelChoice::Model3,
-    ];
-
-    /// `model1`, `model2` or `model3`.
-    pub fn name(self) -> &'static str {
-        match self {
-            ModelChoice::Model1 => "model1",
-            ModelChoice::Model2 => "model2",
-            ModelChoice::Model3 => "model3",
-        }
-    }
-
-    /// Parses `model1`, `model2` or `model3`.
-    pub fn from_name(name: &str) -> Option<Self> {
-        match name {
-            "model1" => Some(ModelChoice::Model1),
-            "model2" => Some(ModelChoice::Model2),
-            "model3" => Some(ModelChoice::Model3),
-            _ => None,
-        }
-    }
-}
+/// Which of the three published VideoRay models supplies the feedforward: the
+/// workspace's one model identity, [`rov_types::BaseModel`] (`model1`, `model2`,
+/// `model3`; the default is model3).
+pub use rov_types::BaseModel as ModelChoice;
 
 /// What the controller and observer need from a vehicle model.
 pub trait FeedforwardModel {
@@ -78,136 +43,39 @@ pub trait FeedforwardModel {
 }
 
 /// A thruster's command-to-force map `F = T_l·u + T_q·u·|u|` with `u = pct/100`, with
-/// separate forward (u ≥ 0) and reverse (u < 0) coefficient pairs (magnitudes ≥ 0, N).
-/// A linear map `F = G·pct` is the special case `T_l = 100·G`, `T_q = 0`.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct ThrustMap {
-    /// Forward linear coefficient T_l, N.
-    pub fwd_lin_n: f64,
-    /// Forward quadratic coefficient T_q, N.
-    pub fwd_quad_n: f64,
-    /// Reverse linear coefficient, N.
-    pub rev_lin_n: f64,
-    /// Reverse quadratic coefficient, N.
-    pub rev_quad_n: f64,
-}
+/// separate forward (u ≥ 0) and reverse (u < 0) coefficient pairs, and its inverse: the
+/// one implementation in `rov_dynamics::thrusters` (the simulator's map), used here as is.
+pub use rov_dynamics::thrusters::QuadraticThrustMap as ThrustMap;
 
-/// Inverts `F = a·u + b·u²` for `F ≥ 0`, `u ≥ 0` (a, b ≥ 0, not both zero).
-fn invert_quadratic(a: f64, b: f64, f: f64) -> f64 {
-    let den = a + (a * a + 4.0 * b * f).sqrt();
-    if den > 0.0 { 2.0 * f / den } else { 0.0 }
-}
-
-impl ThrustMap {
-    /// A symmetric quadratic map (the project's base models).
-    pub fn symmetric(lin_n: f64, quad_n: f64) -> Self {
-        ThrustMap {
-            fwd_lin_n: lin_n,
-            fwd_quad_n: quad_n,
-            rev_lin_n: lin_n,
-            rev_quad_n: quad_n,
-        }
-    }
-
-    /// A linear map `F = G·pct` (N per %).
-    pub fn linear(n_per_pct: f64) -> Self {
-        Self::symmetric(100.0 * n_per_pct, 0.0)
-    }
-
-    /// The same map with every coefficient multiplied by `k` (≥ 0).
-    pub fn scaled(&self, k: f64) -> Self {
-        ThrustMap {
-            fwd_lin_n: k * self.fwd_lin_n,
-            fwd_quad_n: k * self.fwd_quad_n,
-            rev_lin_n: k * self.rev_lin_n,
-            rev_quad_n: k * self.rev_quad_n,
-        }
-    }
-
-    /// Force (N) for a command in % (clamped to ±100; non-finite gives 0).
-    pub fn force_n(&self, pct: f64) -> f64 {
-        if !pct.is_finite() {
-            return 0.0;
-        }
-        let u = pct.clamp(-100.0, 100.0) / 100.0;
-        if u >= 0.0 {
-            self.fwd_lin_n * u + self.fwd_quad_n * u * u
-        } else {
-            self.rev_lin_n * u - self.rev_quad_n * u * u
-        }
-    }
-
-    /// Command (%) for a force (N), inverted per sign and clamped to ±100.
-    pub fn pct_for_force(&self, f_n: f64) -> f64 {
-        if !f_n.is_finite() {
-            return 0.0;
-        }
-        let pct = if f_n >= 0.0 {
-            100.0 * invert_quadratic(self.fwd_lin_n, self.fwd_quad_n, f_n)
-        } else {
-            -100.0 * invert_quadratic(self.rev_lin_n, self.rev_quad_n, -f_n)
-        };
-        pct.clamp(-100.0, 100.0)
-    }
-
-    /// The map of a differential pair, `port` at +u and `starboard` at −u: the force
-    /// difference `F_port(u) − F_starboard(−u)` as a function of u.
-    pub fn differential(port: &ThrustMap, starboard: &ThrustMap) -> ThrustMap {
-        ThrustMap {
-            fwd_lin_n: port.fwd_lin_n + starboard.rev_lin_n,
-            fwd_quad_n: port.fwd_quad_n + starboard.rev_quad_n,
-            rev_lin_n: port.rev_lin_n + starboard.fwd_lin_n,
-            rev_quad_n: port.rev_quad_n + starboard.fwd_quad_n,
-        }
-    }
-
-    fn validate(&self, model: &str, field: &str) -> Result<(), ControlError> {
-        let coeffs = [
-            ("fwd_lin_n", self.fwd_lin_n),
-            ("fwd_quad_n", self.fwd_quad_n),
-            ("rev_lin_n", self.rev_lin_n),
-            ("rev_quad_n", self.rev_quad_n),
-        ];
-        for (name, v) in coeffs {
-            if !(v.is_finite() && (0.0..=1e4).contains(&v)) {
-                return Err(ControlError::InvalidModel {
-                    model: model.to_string(),
-                    field: format!("{field}.{name}"),
-                    value: v,
-                    allowed: "0..=10000".into(),
-                });
-            }
-        }
-        if self.fwd_lin_n + self.fwd_quad_n <= 0.0 || self.rev_lin_n + self.rev_quad_n <= 0.0 {
+/// Checks a thrust map's coefficients (finite, 0..=1e4 N, thrust in both directions).
+fn validate_map(map: &ThrustMap, model: &str, field: &str) -> Result<(), ControlError> {
+    let coeffs = [
+        ("fwd_lin_n", map.forward.linear_n),
+        ("fwd_quad_n", map.forward.quadratic_n),
+        ("rev_lin_n", map.reverse.linear_n),
+        ("rev_quad_n", map.reverse.quadratic_n),
+    ];
+    for (name, v) in coeffs {
+        if !(v.is_finite() && (0.0..=1e4).contains(&v)) {
             return Err(ControlError::InvalidModel {
                 model: model.to_string(),
-                field: field.to_string(),
-                value: 0.0,
-                allowed: "a map that produces thrust in both directions".into(),
+                field: format!("{field}.{name}"),
+                value: v,
+                allowed: "0..=10000".into(),
             });
         }
-        Ok(())
     }
-}
-
-impl From<&rov_dynamics::thrusters::ThrustMap> for ThrustMap {
-    fn from(m: &rov_dynamics::thrusters::ThrustMap) -> Self {
-        match m {
-            rov_dynamics::thrusters::ThrustMap::Quadratic(q) => ThrustMap::from(q),
-            rov_dynamics::thrusters::ThrustMap::Linear(l) => ThrustMap::linear(l.gain_n_per_pct),
-        }
+    if map.forward.linear_n + map.forward.quadratic_n <= 0.0
+        || map.reverse.linear_n + map.reverse.quadratic_n <= 0.0
+    {
+        return Err(ControlError::InvalidModel {
+            model: model.to_string(),
+            field: field.to_string(),
+            value: 0.0,
+            allowed: "a map that produces thrust in both directions".into(),
+        });
     }
-}
-
-impl From<&rov_dynamics::thrusters::QuadraticThrustMap> for ThrustMap {
-    fn from(q: &rov_dynamics::thrusters::QuadraticThrustMap) -> Self {
-        ThrustMap {
-            fwd_lin_n: q.forward.linear_n,
-            fwd_quad_n: q.forward.quadratic_n,
-            rev_lin_n: q.reverse.linear_n,
-            rev_quad_n: q.reverse.quadratic_n,
-        }
-    }
+    Ok(())
 }
 
 /// One axis' rigid-body-plus-added-mass dynamics: `inertia·v̇ + (d_l + d_q·|v|)·v = τ + load`.
@@ -277,9 +145,9 @@ impl PlantModel {
     pub fn validate(&self) -> Result<(), ControlError> {
         self.heave.validate(&self.name, "heave")?;
         self.yaw.validate(&self.name, "yaw")?;
-        self.vertical.validate(&self.name, "vertical")?;
-        self.port.validate(&self.name, "port")?;
-        self.starboard.validate(&self.name, "starboard")?;
+        validate_map(&self.vertical, &self.name, "vertical")?;
+        validate_map(&self.port, &self.name, "port")?;
+        validate_map(&self.starboard, &self.name, "starboard")?;
         if !(self.yaw_arm_m.is_finite() && self.yaw_arm_m > 1e-4 && self.yaw_arm_m < 10.0) {
             return Err(ControlError::InvalidModel {
                 model: self.name.clone(),
@@ -323,9 +191,9 @@ impl PlantModel {
                 damping_quad: p.yaw_drag.quadratic / alpha_r,
                 static_load: 0.0,
             },
-            vertical: ThrustMap::from(&p.vertical),
-            port: ThrustMap::from(&p.port),
-            starboard: ThrustMap::from(&p.starboard),
+            vertical: p.vertical,
+            port: p.port,
+            starboard: p.starboard,
             yaw_arm_m: p.yaw_arm_m(),
         }
     }
@@ -413,9 +281,9 @@ impl PlantModel {
                 damping_quad: quad(5),
                 static_load: 0.0,
             },
-            vertical: ThrustMap::from(&th.vertical.map).scaled(heave_per_n),
-            port: ThrustMap::from(&th.port.map).scaled(port_k),
-            starboard: ThrustMap::from(&th.starboard.map).scaled(stbd_k),
+            vertical: th.vertical.map.as_quadratic().scaled(heave_per_n),
+            port: th.port.map.as_quadratic().scaled(port_k),
+            starboard: th.starboard.map.as_quadratic().scaled(stbd_k),
             yaw_arm_m: arm,
         }
     }
@@ -468,38 +336,18 @@ impl FeedforwardModel for PlantModel {
     }
 
     fn vertical_force_for_pct(&self, vertical_pct: f64) -> f64 {
-        self.vertical.force_n(vertical_pct)
+        self.vertical.force_n_clamped(vertical_pct)
     }
 
     fn yaw_moment_for_pct(&self, port_pct: f64, starboard_pct: f64) -> f64 {
-        self.yaw_arm_m * (self.port.force_n(port_pct) - self.starboard.force_n(starboard_pct))
+        self.yaw_arm_m
+            * (self.port.force_n_clamped(port_pct) - self.starboard.force_n_clamped(starboard_pct))
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn quadratic_map_inverts_per_sign() {
-        let m = ThrustMap {
-            fwd_lin_n: 1.7,
-            fwd_quad_n: 15.3,
-            rev_lin_n: 0.7,
-            rev_quad_n: 6.0,
-        };
-        for pct in [-100.0, -63.0, -5.0, -0.01, 0.0, 0.01, 7.0, 55.0, 100.0] {
-            let f = m.force_n(pct);
-            assert!((m.pct_for_force(f) - pct).abs() < 1e-9, "{pct} -> {f}");
-        }
-        // Reverse asymmetry: full reverse gives 6.7 N, full forward 17 N.
-        assert!((m.force_n(-100.0) + 6.7).abs() < 1e-12);
-        assert!((m.force_n(100.0) - 17.0).abs() < 1e-12);
-        // Beyond the map's reach the command clamps.
-        assert_eq!(m.pct_for_force(50.0), 100.0);
-        assert_eq!(m.pct_for_force(-50.0), -100.0);
-        assert_eq!(m.pct_for_force(f64::NAN), 0.0);
-    }
 
     #[test]
     fn differential_moment_round_trip_all_models() {

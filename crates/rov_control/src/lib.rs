@@ -14,7 +14,8 @@
 //! 6. the output [`guard`], the only constructor of a [`ThrustCommand`]: finite, within
 //!    ±100 %, rate-limited.
 //!
-//! [`pilot`] holds the cruise-control mode logic (stick override, latch on release,
+//! [`profile`] has the fixed tracking profiles `topside hold --profile` flies (pure
+//! functions of time). [`pilot`] holds the cruise-control mode logic (stick override, latch on release,
 //! typed and stepped setpoints) and the targets for the vehicle's own auto-depth and
 //! auto-heading (CSR 0x0B/0x0D). [`config`] has the defaults and the `[control]` loader.
 //!
@@ -43,6 +44,7 @@ pub mod guard;
 pub mod observer;
 pub mod pid;
 pub mod pilot;
+pub mod profile;
 pub mod reference;
 
 pub use allocation::{Allocation, ThrustDemand, allocate};
@@ -62,4 +64,5 @@ pub use pilot::{
     Axis, AxisMode, AxisState, ModeCommand, PilotInput, SurfaceTare, VehicleAutoTargets,
     depth_m_from_mbar, depth_target_mbar, heading_target_deg,
 };
+pub use profile::{ProfilePoint, TrackingProfile};
 pub use reference::{ReferenceConfig, ReferenceModel, ReferenceState};

@@ -111,13 +111,102 @@ impl QuadraticThrustMap {
         }
     }
 
-    /// Force for a command in percent.
+    /// A linear map `F = G·pct` (N per %) as the quadratic special case `T_l = 100·G`.
+    pub fn linear(n_per_pct: f64) -> Self {
+        Self::symmetric(ThrustPair {
+            linear_n: 100.0 * n_per_pct,
+            quadratic_n: 0.0,
+        })
+    }
+
+    /// Force for a command in percent (not clamped: the simulator's hot path; the
+    /// command is limited upstream).
     #[inline]
     pub fn force_n(&self, pct: f64) -> f64 {
         let u = pct * 0.01;
         let p = if u >= 0.0 { self.forward } else { self.reverse };
         p.linear_n * u + p.quadratic_n * u * u.abs()
     }
+
+    /// Force for a command in percent clamped to ±100; a non-finite command gives 0.
+    pub fn force_n_clamped(&self, pct: f64) -> f64 {
+        if pct.is_finite() {
+            self.force_n(pct.clamp(-100.0, 100.0))
+        } else {
+            0.0
+        }
+    }
+
+    /// The inverse map: the command (%) that produces force `f_n`, inverted per sign
+    /// (forward pair for `f_n ≥ 0`, reverse pair below). A force beyond the map's reach
+    /// saturates at ±100 % and says so; a non-finite force gives 0 % (saturated). Never NaN.
+    pub fn inverse(&self, f_n: f64) -> ThrustInverse {
+        if !f_n.is_finite() {
+            return ThrustInverse {
+                pct: 0.0,
+                saturated: true,
+            };
+        }
+        let (pair, sign) = if f_n >= 0.0 {
+            (self.forward, 1.0)
+        } else {
+            (self.reverse, -1.0)
+        };
+        let u = invert_quadratic(pair.linear_n, pair.quadratic_n, f_n.abs());
+        let pct = sign * 100.0 * u;
+        let within = pct.is_finite() && pct.abs() <= 100.0;
+        // A map that produces no force this way cannot meet any demand but zero.
+        let dead = f_n != 0.0 && pair.linear_n + pair.quadratic_n <= 0.0;
+        ThrustInverse {
+            pct: if within { pct } else { sign * 100.0 },
+            saturated: !within || dead,
+        }
+    }
+
+    /// [`QuadraticThrustMap::inverse`]'s command alone.
+    pub fn pct_for_force(&self, f_n: f64) -> f64 {
+        self.inverse(f_n).pct
+    }
+
+    /// The same map with every coefficient multiplied by `k` (≥ 0).
+    pub fn scaled(&self, k: f64) -> Self {
+        let s = |p: ThrustPair| ThrustPair {
+            linear_n: k * p.linear_n,
+            quadratic_n: k * p.quadratic_n,
+        };
+        Self {
+            forward: s(self.forward),
+            reverse: s(self.reverse),
+        }
+    }
+
+    /// The map of a differential pair, `port` at +u and `starboard` at −u: the force
+    /// difference `F_port(u) − F_starboard(−u)` as a function of u.
+    pub fn differential(port: &Self, starboard: &Self) -> Self {
+        let add = |a: ThrustPair, b: ThrustPair| ThrustPair {
+            linear_n: a.linear_n + b.linear_n,
+            quadratic_n: a.quadratic_n + b.quadratic_n,
+        };
+        Self {
+            forward: add(port.forward, starboard.reverse),
+            reverse: add(port.reverse, starboard.forward),
+        }
+    }
+}
+
+/// The result of inverting a thrust map.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ThrustInverse {
+    /// The command, %, within ±100 and finite.
+    pub pct: f64,
+    /// The demand was beyond the map's reach (or not finite), so `pct` is the limit.
+    pub saturated: bool,
+}
+
+/// Inverts `F = a·u + b·u²` for `F ≥ 0`, `u ≥ 0` (a, b ≥ 0); 0 when both are zero.
+fn invert_quadratic(a: f64, b: f64, f: f64) -> f64 {
+    let den = a + (a * a + 4.0 * b * f).sqrt();
+    if den > 0.0 { 2.0 * f / den } else { 0.0 }
 }
 
 /// F = G · percent (seed 000 eq. 17).
@@ -143,6 +232,15 @@ impl ThrustMap {
         match self {
             ThrustMap::Quadratic(q) => q.force_n(pct),
             ThrustMap::Linear(l) => l.gain_n_per_pct * pct,
+        }
+    }
+
+    /// The same map in the quadratic form (a linear map is `T_l = 100·G`, `T_q = 0`),
+    /// which has the inverse.
+    pub fn as_quadratic(&self) -> QuadraticThrustMap {
+        match self {
+            ThrustMap::Quadratic(q) => *q,
+            ThrustMap::Linear(l) => QuadraticThrustMap::linear(l.gain_n_per_pct),
         }
     }
 }
@@ -346,6 +444,84 @@ pub fn propeller_thrust_kt(
 mod tests {
     use super::*;
 
+    fn asymmetric() -> QuadraticThrustMap {
+        QuadraticThrustMap {
+            forward: ThrustPair {
+                linear_n: 1.7,
+                quadratic_n: 15.3,
+            },
+            reverse: ThrustPair {
+                linear_n: 0.7,
+                quadratic_n: 6.0,
+            },
+        }
+    }
+
+    #[test]
+    fn inverse_round_trips_per_sign() {
+        let m = asymmetric();
+        for k in -200..=200 {
+            let pct = f64::from(k) * 0.5;
+            let f = m.force_n(pct);
+            let inv = m.inverse(f);
+            assert!((inv.pct - pct).abs() < 1e-9, "{pct} -> {f} -> {inv:?}");
+            assert!(!inv.saturated, "{pct}");
+            assert_eq!(m.force_n_clamped(pct), f);
+        }
+        // The linear special case and the enum's quadratic form agree with the enum.
+        let lin = ThrustMap::Linear(LinearThrustMap {
+            gain_n_per_pct: 0.07,
+        });
+        for pct in [-100.0, -3.0, 0.0, 42.0, 100.0] {
+            let q = lin.as_quadratic();
+            assert!((q.force_n(pct) - lin.force_n(pct)).abs() < 1e-12);
+            assert!((q.pct_for_force(lin.force_n(pct)) - pct).abs() < 1e-9);
+        }
+    }
+
+    #[test]
+    fn inverse_saturates_and_never_returns_nan() {
+        let m = asymmetric();
+        let up = m.inverse(50.0);
+        assert_eq!((up.pct, up.saturated), (100.0, true));
+        let down = m.inverse(-50.0);
+        assert_eq!((down.pct, down.saturated), (-100.0, true));
+        for f in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
+            let inv = m.inverse(f);
+            assert_eq!((inv.pct, inv.saturated), (0.0, true), "{f}");
+        }
+        assert_eq!(m.force_n_clamped(f64::NAN), 0.0);
+        assert_eq!(m.force_n_clamped(250.0), m.force_n(100.0));
+        // A map with a dead reverse direction: any reverse demand saturates, finitely.
+        let dead = QuadraticThrustMap {
+            reverse: ThrustPair {
+                linear_n: 0.0,
+                quadratic_n: 0.0,
+            },
+            ..m
+        };
+        for f in [-1e300, -1.0, -1e-300, f64::MAX, f64::MIN_POSITIVE] {
+            let inv = dead.inverse(f);
+            assert!(
+                inv.pct.is_finite() && inv.pct.abs() <= 100.0,
+                "{f} -> {inv:?}"
+            );
+        }
+        assert!(dead.inverse(-1.0).saturated);
+        assert_eq!(dead.inverse(0.0).pct, 0.0);
+    }
+
+    #[test]
+    fn differential_and_scaled_maps() {
+        let (p, s) = (asymmetric(), asymmetric().scaled(0.5));
+        let d = QuadraticThrustMap::differential(&p, &s);
+        for pct in [-100.0, -40.0, 0.0, 30.0, 100.0] {
+            let want = p.force_n(pct) - s.force_n(-pct);
+            assert!((d.force_n(pct) - want).abs() < 1e-12, "{pct}");
+        }
+        assert!((s.force_n(100.0) - 8.5).abs() < 1e-12);
+    }
+
     fn pro4_set(pair: ThrustPair) -> ThrusterSet {
         let map = ThrustMap::Quadratic(QuadraticThrustMap::symmetric(pair));
         ThrusterSet {
@@ -366,16 +542,7 @@ mod tests {
 
     #[test]
     fn quadratic_map_is_sign_preserving_with_separate_reverse_pair() {
-        let m = QuadraticThrustMap {
-            forward: ThrustPair {
-                linear_n: 1.7,
-                quadratic_n: 15.3,
-            },
-            reverse: ThrustPair {
-                linear_n: 0.7,
-                quadratic_n: 6.0,
-            },
-        };
+        let m = asymmetric();
         assert!((m.force_n(100.0) - 17.0).abs() < 1e-12);
         assert!((m.force_n(-100.0) + 6.7).abs() < 1e-12);
         assert!((m.force_n(50.0) - (0.85 + 15.3 * 0.25)).abs() < 1e-12);

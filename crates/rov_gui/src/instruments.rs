@@ -338,10 +338,6 @@ pub struct HeadingTape {
     pub stale: bool,
 }
 
-fn wrap180(x: f64) -> f64 {
-    (x + 540.0).rem_euclid(360.0) - 180.0
-}
-
 impl HeadingTape {
     /// Draws the tape; drag horizontally to choose a heading setpoint.
     pub fn show(&self, ui: &mut Ui, size: Vec2, drag: Option<f64>) -> Option<TapeAction> {
@@ -364,7 +360,8 @@ impl HeadingTape {
         let h = self.heading_deg.unwrap_or(0.0);
         let half = 60.0;
         let px_per_deg = tape.width() / (2.0 * half as f32);
-        let x_of = |d: f64| tape.center().x + (wrap180(d - h) as f32) * px_per_deg;
+        let x_of =
+            |d: f64| tape.center().x + (rov_types::angle::wrap_deg_180(d - h) as f32) * px_per_deg;
         let d_of = |x: f32| (h + f64::from((x - tape.center().x) / px_per_deg)).rem_euclid(360.0);
         let clip = painter.with_clip_rect(tape);
         let first = ((h - half) / 5.0).floor() as i64;

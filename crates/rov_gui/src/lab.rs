@@ -742,7 +742,7 @@ pub fn channel_lines(t: &[f64], ch: &ComparedChannel, step: usize) -> (Segments,
                 continue;
             }
             let y = if wraps {
-                reference + ((y - reference + 540.0).rem_euclid(360.0) - 180.0)
+                rov_types::angle::nearest_deg(*y, reference)
             } else {
                 *y
             };

@@ -142,7 +142,7 @@ pub fn series_points(
     // pointing north does not draw lines across the whole plot.
     if let (true, Some(r)) = (ch.wraps(), wrap_ref) {
         for p in &mut pts {
-            p[1] = r + ((p[1] - r + 540.0).rem_euclid(360.0) - 180.0);
+            p[1] = rov_types::angle::nearest_deg(p[1], r);
         }
     }
     if pts.is_empty() {

@@ -8,11 +8,13 @@
 //! [`ResimOptions::dt_max_s`]).
 //!
 //! Fit per channel, over the samples where both traces are finite:
-//! fit % = 100 · (1 − ‖y − ŷ‖ / ‖y − ȳ‖) and RMSE = √(mean (y − ŷ)²). For heading the
+//! fit % = 100 · (1 − ‖y − ŷ‖ / ‖y − ȳ‖) and RMSE = √(mean (y − ŷ)²) ([`rov_types::fit`]). For heading the
 //! measured trace is unwrapped first (ȳ and ‖y − ȳ‖ use it) and the error y − ŷ is wrapped
 //! to ±180°. A channel the model does not predict is reported with `predicted: false`.
 
 use rov_dynamics::{Channel, InitialConditions, ModelOutput, ThrustPct, VehicleModel, simulate};
+use rov_types::angle::wrap_deg_180;
+use rov_types::fit::{ErrorKind, fit};
 use rov_types::measurement::{MeasurementRow, MeasurementSeries};
 
 use crate::error::{Result, SessionError};
@@ -216,11 +218,6 @@ fn predicted_series(
     }
 }
 
-/// Wraps degrees to [−180, 180).
-fn wrap180(x: f64) -> f64 {
-    (x + 180.0).rem_euclid(360.0) - 180.0
-}
-
 fn fit_channel(
     ch: Channel,
     measured: &MeasurementSeries,
@@ -251,7 +248,7 @@ fn fit_channel(
         }
         let y = if heading {
             let u = match unwrap_prev {
-                Some((raw, un)) => un + wrap180(y - raw),
+                Some((raw, un)) => un + wrap_deg_180(y - raw),
                 None => y,
             };
             unwrap_prev = Some((y, u));
@@ -261,23 +258,11 @@ fn fit_channel(
         };
         pairs.push((y, yh));
     }
-    let n = pairs.len();
-    if n == 0 {
-        return empty;
-    }
-    let mean = pairs.iter().map(|(y, _)| y).sum::<f64>() / n as f64;
-    let mut err2 = 0.0;
-    let mut dev2 = 0.0;
-    for (y, yh) in &pairs {
-        let e = if heading { wrap180(y - yh) } else { y - yh };
-        err2 += e * e;
-        dev2 += (y - mean) * (y - mean);
-    }
-    let fit_pct = (dev2 > 0.0).then(|| 100.0 * (1.0 - (err2 / dev2).sqrt()));
+    let f = fit(&pairs, ErrorKind::angular_if(heading));
     ChannelFit {
-        samples: n,
-        fit_pct,
-        rmse: Some((err2 / n as f64).sqrt()),
+        samples: f.samples,
+        fit_pct: f.fit_pct,
+        rmse: f.rmse,
         ..empty
     }
 }
@@ -287,11 +272,10 @@ mod tests {
     use super::*;
 
     #[test]
-    fn wraps() {
-        assert_eq!(wrap180(190.0), -170.0);
-        assert_eq!(wrap180(-190.0), 170.0);
-        assert_eq!(wrap180(180.0), -180.0);
-        assert_eq!(wrap180(10.0), 10.0);
+    fn wraps_with_the_signed_convention() {
+        // The unwrapping and the heading error use [−180, 180).
+        assert_eq!(wrap_deg_180(190.0), -170.0);
+        assert_eq!(wrap_deg_180(180.0), -180.0);
     }
 
     #[test]

@@ -12,18 +12,24 @@
 //!   soon as the link allows (1 s of healthy link), engages both holds with the targets,
 //!   and from that instant (t = 0 of the metrics) runs for `duration_s`.
 //! * Metrics use the true state (see [`crate::metrics`]).
+//! * With a tracking profile ([`rov_control::TrackingProfile`]) the station types the
+//!   profile's smooth reference every tick as a moving setpoint, starting from the
+//!   targets; the run is the whole profile plus `duration_s`. The report then adds
+//!   `tracking_rmse` (true state against the profile's reference over the profile), and
+//!   the step metrics describe the profile's final step (from its start to the end).
 
 use nalgebra::Vector3;
-use rov_control::{ControlConfig, ModeCommand, ModelChoice, ModelSet};
+use rov_control::{ControlConfig, ModeCommand, ModelChoice, ModelSet, TrackingProfile};
 use rov_driver::{Link, LinkConfig, LinkEvent};
 use rov_dynamics::InitialConditions;
 use rov_dynamics::current::CurrentModel;
 use rov_sim::{SimConfig, Simulator, TetherForce};
+use rov_types::angle::wrap_deg_360;
 use rov_vehicle::{SimApp, SimLink, Vehicle, VehicleConfig};
 use serde::Serialize;
 
 use crate::core::{StationCommand, StationCore};
-use crate::metrics::{StepMetrics, rmse_between, step_metrics, wrap_deg};
+use crate::metrics::{StepMetrics, rmse_between, step_metrics};
 
 /// Control period, µs (50 Hz).
 pub const TICK_US: u64 = 20_000;
@@ -49,8 +55,10 @@ pub struct HoldSpec {
     pub depth_m: f64,
     /// Heading target, degrees.
     pub heading_deg: f64,
-    /// Run length after engagement, s.
+    /// Run length after engagement, s (with a profile: extra hold time after it).
     pub duration_s: f64,
+    /// A tracking profile flown from the targets instead of one step.
+    pub profile: Option<TrackingProfile>,
     /// Starting depth, m.
     pub start_depth_m: f64,
     /// Starting heading, degrees.
@@ -93,8 +101,9 @@ impl HoldSpec {
             depth_m,
             heading_deg,
             duration_s,
+            profile: None,
             start_depth_m: depth_m - 2.0,
-            start_heading_deg: (heading_deg - 90.0).rem_euclid(360.0),
+            start_heading_deg: wrap_deg_360(heading_deg - 90.0),
             disturbance: Disturbance::None,
             feedforward: true,
             observer: true,
@@ -147,6 +156,16 @@ pub struct ObserverReport {
     pub heading_rmse_deg: f64,
 }
 
+/// Tracking error over a profile: RMSE of the true state against the profile's smooth
+/// reference, from engagement to the end of the profile.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct TrackingReport {
+    /// Depth RMSE, m.
+    pub depth_m: f64,
+    /// Heading RMSE (wrapped errors), degrees.
+    pub heading_deg: f64,
+}
+
 /// The result of a hold run, serialised exactly as `topside hold --json` prints it.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct HoldReport {
@@ -158,6 +177,9 @@ pub struct HoldReport {
     pub thrust: ThrustReport,
     /// Observer.
     pub observer: ObserverReport,
+    /// Tracking over the profile (only with a profile; absent from the JSON otherwise).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub tracking_rmse: Option<TrackingReport>,
 }
 
 /// Time series of a hold run (for tests, plots and the RMSE of raw measurements).
@@ -254,7 +276,8 @@ impl SimApp for App<'_> {
                 return;
             }
             self.engaged_us = Some(now_us);
-            self.end_us = now_us + (self.spec.duration_s * 1e6).round() as u64;
+            let run_s = self.spec.duration_s + self.spec.profile.map_or(0.0, |p| p.duration_s());
+            self.end_us = now_us + (run_s * 1e6).round() as u64;
         }
         if let (Some(t0), Some(schedule)) = (self.engaged_us, self.schedule.as_mut()) {
             let t = (now_us.saturating_sub(t0)) as f64 * 1e-6;
@@ -284,7 +307,7 @@ impl SimApp for App<'_> {
         self.trace.depth_true_m.push(eta.z);
         self.trace
             .heading_true_deg
-            .push(eta.b.to_degrees().rem_euclid(360.0));
+            .push(wrap_deg_360(eta.b.to_degrees()));
         self.trace
             .depth_meas_m
             .push(meas.map_or(f64::NAN, |m| m.depth_m));
@@ -306,7 +329,7 @@ impl SimApp for App<'_> {
         self.trace.depth_traj_m.push(d.depth.reference.pos);
         self.trace
             .heading_traj_deg
-            .push(d.heading.reference.pos.to_degrees().rem_euclid(360.0));
+            .push(wrap_deg_360(d.heading.reference.pos.to_degrees()));
         self.trace
             .depth_bias_n
             .push(d.depth.estimate.map_or(f64::NAN, |e| e.bias));
@@ -382,19 +405,47 @@ pub fn run_hold_with(
         spec.start_depth_m,
         spec.start_heading_deg,
     ];
-    if finite.iter().any(|x| !x.is_finite())
-        || spec.duration_s <= 0.0
-        || spec.duration_s > 24.0 * 3600.0
+    // With a profile the run is never empty, so no extra hold time is allowed.
+    let min_duration_ok = if spec.profile.is_some() {
+        spec.duration_s >= 0.0
+    } else {
+        spec.duration_s > 0.0
+    };
+    if finite.iter().any(|x| !x.is_finite()) || !min_duration_ok || spec.duration_s > 24.0 * 3600.0
     {
         return Err(HoldError::Invalid(format!(
-            "targets, start and duration must be finite and the duration in (0, 86400] s: {spec:?}"
+            "targets, start and duration must be finite and the duration in (0, 86400] s \
+             ([0, 86400] s after a profile): {spec:?}"
         )));
     }
-    if !(0.0..=300.0).contains(&spec.depth_m) || !(0.0..=300.0).contains(&spec.start_depth_m) {
-        return Err(HoldError::Invalid(
-            "depths must lie in 0..=300 m (the Pro 4's rating)".into(),
-        ));
+    let deepest_m = spec.depth_m + spec.profile.map_or(0.0, |p| p.max_depth_offset_m());
+    if !(0.0..=300.0).contains(&spec.depth_m)
+        || !(0.0..=300.0).contains(&spec.start_depth_m)
+        || deepest_m > 300.0
+    {
+        return Err(HoldError::Invalid(format!(
+            "depths must lie in 0..=300 m (the Pro 4's rating; the profile goes {:.1} m below \
+             --depth-m)",
+            deepest_m - spec.depth_m
+        )));
     }
+    let mut profile_schedule = spec.profile.map(|p| {
+        let (d0, h0) = (spec.depth_m, spec.heading_deg);
+        move |t: f64| {
+            let r = p.reference(t, d0, h0);
+            Some((r.depth_m, r.heading_deg))
+        }
+    });
+    let schedule: Option<&mut ReferenceSchedule> = match (schedule, profile_schedule.as_mut()) {
+        (Some(_), Some(_)) => {
+            return Err(HoldError::Invalid(
+                "a profile and a custom setpoint schedule cannot be combined".into(),
+            ));
+        }
+        (Some(s), None) => Some(s),
+        (None, Some(p)) => Some(p),
+        (None, None) => None,
+    };
     let mut control = spec.control;
     control.observer_enabled = spec.observer;
     control.feedforward_model = spec.model;
@@ -443,20 +494,48 @@ pub fn run_hold_with(
         .copied()
         .zip(tr.heading_true_deg.iter().copied())
         .collect();
+    // The step the metrics describe: the run's only step, or a profile's final step
+    // (times from its start).
+    let (step_t0, depth_from_to, heading_from_to) = match spec.profile {
+        None => (
+            0.0,
+            (spec.start_depth_m, spec.depth_m),
+            (spec.start_heading_deg, spec.heading_deg),
+        ),
+        Some(p) => {
+            let t0 = p.final_step_t0_s();
+            let before = p.reference(t0, spec.depth_m, spec.heading_deg);
+            let after = p.reference(p.duration_s(), spec.depth_m, spec.heading_deg);
+            (
+                t0,
+                (before.depth_m, after.depth_m),
+                (before.heading_deg, after.heading_deg),
+            )
+        }
+    };
+    let from_step = |s: Vec<(f64, f64)>| -> Vec<(f64, f64)> {
+        s.into_iter()
+            .filter(|(t, _)| *t >= step_t0)
+            .map(|(t, v)| (t - step_t0, v))
+            .collect()
+    };
     let dm: StepMetrics = step_metrics(
-        &depth_samples,
-        spec.start_depth_m,
-        spec.depth_m,
+        &from_step(depth_samples),
+        depth_from_to.0,
+        depth_from_to.1,
         false,
         0.02,
     );
     let hm: StepMetrics = step_metrics(
-        &heading_samples,
-        spec.start_heading_deg,
-        spec.heading_deg,
+        &from_step(heading_samples),
+        heading_from_to.0,
+        heading_from_to.1,
         true,
         1.0,
     );
+    let tracking = spec
+        .profile
+        .map(|p| profile_tracking(p, spec, &tr.t_s, &tr.depth_true_m, &tr.heading_true_deg));
     let report = HoldReport {
         depth: DepthReport {
             settle_s: dm.settle_s,
@@ -481,17 +560,32 @@ pub fn run_hold_with(
             depth_rmse_m: rmse_between(&tr.depth_est_m, &tr.depth_true_m, false),
             heading_rmse_deg: rmse_between(&tr.heading_est_deg, &tr.heading_true_deg, true),
         },
+        tracking_rmse: tracking,
     };
     Ok((report, tr))
 }
 
-/// RMSE of a trace's values against its reference (for tracking tests).
-pub fn tracking_rmse(values: &[f64], reference: &[f64], angular: bool) -> f64 {
-    let e: Vec<f64> = values
-        .iter()
-        .zip(reference)
-        .map(|(v, r)| if angular { wrap_deg(v - r) } else { v - r })
-        .collect();
-    let zeros = vec![0.0; e.len()];
-    rmse_between(&e, &zeros, false)
+/// Tracking RMSE of the true state against a profile's smooth reference, over the
+/// samples from engagement to the end of the profile.
+fn profile_tracking(
+    profile: TrackingProfile,
+    spec: &HoldSpec,
+    t_s: &[f64],
+    depth_m: &[f64],
+    heading_deg: &[f64],
+) -> TrackingReport {
+    let (mut d_ref, mut h_ref, mut d, mut h) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    for ((t, dv), hv) in t_s.iter().zip(depth_m).zip(heading_deg) {
+        if *t <= profile.duration_s() {
+            let r = profile.reference(*t, spec.depth_m, spec.heading_deg);
+            d_ref.push(r.depth_m);
+            h_ref.push(r.heading_deg);
+            d.push(*dv);
+            h.push(*hv);
+        }
+    }
+    TrackingReport {
+        depth_m: rmse_between(&d, &d_ref, false),
+        heading_deg: rmse_between(&h, &h_ref, true),
+    }
 }

@@ -7,18 +7,17 @@
 //! * overshoot: the largest true excursion past the target in the direction of the step
 //!   (depth in % of the step size, heading in degrees); 0 when it never passes.
 //! * steady error: the mean true error over the last 10 s (absolute value of the mean).
-//! * RMSE over the whole run.
+//! * RMSE over the whole run ([`rov_types::fit`]).
 
+use rov_types::fit::{ErrorKind, rms, rmse};
 use serde::Serialize;
 
 /// Length of the steady-state window at the end of a run, s.
 pub const STEADY_WINDOW_S: f64 = 10.0;
 
-/// Wraps an angle difference to (−180, 180] degrees.
-pub fn wrap_deg(e: f64) -> f64 {
-    let w = (e + 180.0).rem_euclid(360.0) - 180.0;
-    if w <= -180.0 { w + 360.0 } else { w }
-}
+/// Wraps an angle difference to (−180, 180] degrees: the hold reports' convention,
+/// [`rov_types::angle::wrap_deg_180_incl`].
+pub use rov_types::angle::wrap_deg_180_incl as wrap_deg;
 
 /// One channel's step metrics.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -99,11 +98,7 @@ pub fn step_metrics(
     } else {
         (tail.iter().sum::<f64>() / tail.len() as f64).abs()
     };
-    let rmse = if finite.is_empty() {
-        f64::NAN
-    } else {
-        (finite.iter().map(|(_, v)| err(*v).powi(2)).sum::<f64>() / finite.len() as f64).sqrt()
-    };
+    let rmse = rms(finite.iter().map(|(_, v)| err(*v))).unwrap_or(f64::NAN);
     StepMetrics {
         settle_s,
         overshoot,
@@ -112,22 +107,11 @@ pub fn step_metrics(
     }
 }
 
-/// RMSE between two aligned series (optionally wrapped in degrees); NaN pairs skipped.
+/// RMSE between two aligned series (optionally wrapped in degrees); NaN pairs skipped;
+/// NaN when no pair is finite (the report's field stays a number). Computed by
+/// [`rov_types::fit::rmse`].
 pub fn rmse_between(a: &[f64], b: &[f64], angular: bool) -> f64 {
-    let mut s = 0.0;
-    let mut n = 0usize;
-    for (x, y) in a.iter().zip(b) {
-        if x.is_finite() && y.is_finite() {
-            let e = if angular { wrap_deg(x - y) } else { x - y };
-            s += e * e;
-            n += 1;
-        }
-    }
-    if n == 0 {
-        f64::NAN
-    } else {
-        (s / n as f64).sqrt()
-    }
+    rmse(a, b, ErrorKind::angular_if(angular)).unwrap_or(f64::NAN)
 }
 
 #[cfg(test)]

@@ -117,13 +117,8 @@ fn sign(positive_is_physics: bool) -> f64 {
     if positive_is_physics { 1.0 } else { -1.0 }
 }
 
-/// Wraps degrees to [0, 360).
-#[must_use]
-pub fn wrap_deg_360(deg: f64) -> f64 {
-    let w = deg.rem_euclid(360.0);
-    // rem_euclid can return 360.0 for tiny negative inputs.
-    if w >= 360.0 { 0.0 } else { w }
-}
+/// Wraps degrees to [0, 360) (the one implementation is in [`crate::angle`]).
+pub use crate::angle::wrap_deg_360;
 
 impl WireConventions {
     /// The documented defaults (see the [module docs](self)).

@@ -5,6 +5,10 @@
 //! * [`measurement`]: the measurement CSV format that the simulator writes and the model
 //!   lab and the session tools read.
 //! * [`number`]: how every CSV writer formats numbers (shortest round trip).
+//! * [`angle`]: angle wrapping, both conventions named (the one implementation).
+//! * [`model_id`]: which model (model1|model2|model3|FILE.toml), parsed in one place.
+//! * [`fit`]: fit % and RMSE of a prediction against a measurement (the one
+//!   implementation).
 //!
 //! This crate does no I/O: it parses and formats text. Callers read and write files.
 #![cfg_attr(
@@ -17,10 +21,14 @@
     )
 )]
 
+pub mod angle;
 pub mod conventions;
+pub mod fit;
 pub mod measurement;
+pub mod model_id;
 pub mod number;
 pub mod params;
 
 pub use measurement::{MeasurementError, MeasurementRow, MeasurementSeries};
+pub use model_id::{BaseModel, ModelId, ModelIdError};
 pub use params::{ConfigError, ParamFile};

@@ -146,7 +146,7 @@ impl Autopilot {
         yaw_rate_dps: f64,
         dt: f64,
     ) -> f64 {
-        let error = (target_deg - heading_deg + 540.0).rem_euclid(360.0) - 180.0;
+        let error = rov_types::angle::wrap_deg_180(target_deg - heading_deg);
         self.heading
             .update(&self.cfg.heading, error, yaw_rate_dps, dt)
     }

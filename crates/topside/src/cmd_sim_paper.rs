@@ -96,21 +96,9 @@ fn rmse(
     pick: fn(&rov_types::MeasurementRow) -> f64,
     wrap: bool,
 ) -> Option<f64> {
-    let mut sum = 0.0;
-    let mut n = 0usize;
-    for (ra, rb) in a.rows.iter().zip(&b.rows) {
-        let (x, y) = (pick(ra), pick(rb));
-        if !(x.is_finite() && y.is_finite()) {
-            continue;
-        }
-        let mut e = x - y;
-        if wrap {
-            e = (e + 180.0).rem_euclid(360.0) - 180.0;
-        }
-        sum += e * e;
-        n += 1;
-    }
-    (n > 0).then(|| (sum / n as f64).sqrt())
+    let xs: Vec<f64> = a.rows.iter().map(pick).collect();
+    let ys: Vec<f64> = b.rows.iter().map(pick).collect();
+    rov_types::fit::rmse(&xs, &ys, rov_types::fit::ErrorKind::angular_if(wrap))
 }
 
 pub fn run(args: PaperArgs) -> anyhow::Result<std::process::ExitCode> {

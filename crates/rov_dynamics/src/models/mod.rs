@@ -61,7 +61,7 @@ pub use model3::{Model3, Model3Params, SurgeDragReading};
 pub const MAX_EXTRA_STATES: usize = 8;
 
 /// The names accepted by [`load_model`].
-pub const MODEL_NAMES: [&str; 3] = ["model1", "model2", "model3"];
+pub const MODEL_NAMES: [&str; 3] = rov_types::BaseModel::NAMES;
 
 /// State of any model: η, ν (6-DOF layout) and extra states.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]

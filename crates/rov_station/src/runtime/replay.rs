@@ -220,11 +220,6 @@ fn index_session(
     publish(&mut batch, &mut checkpoints, &mut events, t_now, true);
 }
 
-/// Wraps degrees to [−180, 180).
-fn wrap180(x: f64) -> f64 {
-    (x + 180.0).rem_euclid(360.0) - 180.0
-}
-
 /// Replays a session; see the module docs.
 #[derive(Debug)]
 pub(crate) struct ReplayEngine {
@@ -335,7 +330,7 @@ impl ReplayEngine {
                 {
                     let now = self.feed.pipeline.view.snapshot.heading_deg;
                     let extra = match (heading, now) {
-                        (Some(a), Some(b)) => wrap180(b - a) / 360.0,
+                        (Some(a), Some(b)) => rov_types::angle::wrap_deg_180(b - a) / 360.0,
                         _ => 0.0,
                     };
                     self.feed.pipeline.set_turns(turns + extra, now);

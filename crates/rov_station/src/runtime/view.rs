@@ -452,7 +452,7 @@ impl Pipeline {
         self.last_nav_s = Some(t_s);
         if let Some(h) = finite(r.heading_deg) {
             if let Some(prev) = self.last_heading {
-                self.heading_sum_deg += (h - prev + 540.0).rem_euclid(360.0) - 180.0;
+                self.heading_sum_deg += rov_types::angle::wrap_deg_180(h - prev);
             }
             self.last_heading = Some(h);
             self.view.turns = (self.heading_sum_deg - self.turns_zero_deg) / 360.0;
