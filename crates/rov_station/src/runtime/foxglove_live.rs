@@ -164,6 +164,8 @@ pub struct LiveServer {
     server: Option<foxglove::WebSocketServerHandle>,
     feeder: Option<JoinHandle<()>>,
     runtime: Option<tokio::runtime::Runtime>,
+    /// The channels' and the server's context (the SDK holds it weakly: it lives here).
+    _context: Arc<Context>,
 }
 
 impl std::fmt::Debug for LiveServer {
@@ -223,6 +225,7 @@ impl LiveServer {
             server: Some(server),
             feeder: Some(feeder),
             runtime: Some(runtime),
+            _context: ctx,
         })
     }
 
