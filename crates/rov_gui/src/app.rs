@@ -208,6 +208,8 @@ pub struct StationApp {
     pub(crate) browser: crate::sessions::SessionBrowser,
     /// How many recordings the browser's last scan knew of (rescans after a new one).
     pub(crate) browser_seen: usize,
+    /// The live Foxglove server (Settings tab).
+    pub(crate) foxglove: crate::foxglove_live::FoxgloveState,
 }
 
 impl std::fmt::Debug for StationApp {
@@ -267,6 +269,7 @@ impl StationApp {
             pad_map: rov_station::runtime::pad::PadMap::default(),
             browser: crate::sessions::SessionBrowser::default(),
             browser_seen: usize::MAX,
+            foxglove: crate::foxglove_live::FoxgloveState::default(),
         };
         app.set_live(live);
         app
@@ -462,6 +465,11 @@ impl StationApp {
         self.live = live;
         self.live_hist = History::default();
         self.live_view = StationView::default();
+        if let Some(h) = &self.live
+            && self.foxglove.server.is_some()
+        {
+            self.foxglove.attach(h);
+        }
         if self.record_on_connect && self.live.is_some() {
             // Every connection records from its start, unless the pilot switched it
             // off in the settings; the REC control shows which.

@@ -19,6 +19,7 @@ pub mod app;
 mod connection;
 mod dive;
 pub mod fly;
+mod foxglove_live;
 mod help;
 pub mod instruments;
 pub mod lab;

@@ -1,7 +1,8 @@
 //! The Settings tab: units, the serial port and baud rate, the recordings folder and
-//! recording on connection, the simulated link's fault rate, the alarm limits, and the
-//! video settings (see `video_settings`). Apply sends the alarm limits to the live
-//! station; Save writes `[alarms]` and `[station]` into the station configuration
+//! recording on connection, the simulated link's fault rate, the alarm limits, the video
+//! settings (see `video_settings`) and the live Foxglove server ([`crate::foxglove_live`]).
+//! Apply sends the alarm limits to the live station; Save writes `[alarms]`, `[station]`
+//! and `[foxglove]` into the station configuration
 //! (`rov_station::runtime::settings::save`, which keeps the rest of the file).
 
 use egui::{RichText, Ui, vec2};
@@ -189,6 +190,8 @@ pub(crate) fn settings_tab(app: &mut StationApp, ui: &mut Ui) {
                 &target,
                 &mut app.message,
             );
+            left.separator();
+            crate::foxglove_live::section(app, left);
 
             right.label(RichText::new("Alarm limits").strong().color(theme::SCALE));
             alarm_limits(right, &mut app.alarm_limits);
@@ -221,7 +224,13 @@ pub(crate) fn settings_tab(app: &mut StationApp, ui: &mut Ui) {
                     let c = app.alarm_limits;
                     app.live_cmd(RuntimeCommand::AlarmLimits(c));
                     app.message = Some(
-                        match rov_station::runtime::settings::save(&target, &c, &app.station) {
+                        match rov_station::runtime::settings::save(&target, &c, &app.station)
+                            .and_then(|()| {
+                                rov_station::runtime::settings::save_foxglove(
+                                    &target,
+                                    &app.foxglove.settings,
+                                )
+                            }) {
                             Ok(()) => format!("settings saved to {}", target.display()),
                             Err(e) => format!("cannot save: {e}"),
                         },

@@ -373,3 +373,80 @@ fn the_session_browser_lists_exports_replays_and_sends_to_the_lab() {
         r.message()
     );
 }
+
+/// Opens a WebSocket connection by hand (the HTTP upgrade with Foxglove's subprotocol)
+/// and returns the stream once the server switched protocols.
+fn foxglove_client(addr: std::net::SocketAddr) -> std::net::TcpStream {
+    use std::io::{Read, Write};
+    let mut s = std::net::TcpStream::connect(addr).unwrap();
+    write!(
+        s,
+        "GET / HTTP/1.1\r\nHost: {addr}\r\nUpgrade: websocket\r\nConnection: Upgrade\r\nSec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\nSec-WebSocket-Protocol: foxglove.sdk.v1\r\n\r\n"
+    )
+    .unwrap();
+    let mut head = [0u8; 12];
+    s.read_exact(&mut head).unwrap();
+    assert_eq!(&head, b"HTTP/1.1 101", "{}", String::from_utf8_lossy(&head));
+    s
+}
+
+#[test]
+fn foxglove_live_serves_from_the_settings_tab_and_names_a_bad_address() {
+    use rov_station::runtime::settings::FoxgloveSettings;
+    let mut r = rig("foxglove_live.mcap");
+    r.run(1.0);
+    // An address in use: the error names it, nothing is served, the station flies on.
+    let taken = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    let in_use = taken.local_addr().unwrap().to_string();
+    let settings = |ws: &str| FoxgloveSettings {
+        enabled: false,
+        ws: ws.into(),
+    };
+    r.harness
+        .state_mut()
+        .set_foxglove(settings(&in_use), Ok(None));
+    r.harness.state_mut().set_tab(Tab::Settings);
+    r.run(FRAME_S);
+    assert!(r.has_label_containing("off: serves the station's channels"));
+    r.click("Serve");
+    assert!(r.harness.state().foxglove_status().is_none());
+    let e = r.harness.state().foxglove_error().unwrap().to_string();
+    assert!(e.contains(&in_use) && e.contains("in use"), "{e}");
+    assert!(r.has_label_containing(&in_use));
+
+    // A free port: served, and the station's records reach the server.
+    r.harness
+        .state_mut()
+        .set_foxglove(settings("127.0.0.1:0"), Ok(None));
+    r.run(FRAME_S);
+    r.click("Serve");
+    let st = r
+        .harness
+        .state()
+        .foxglove_status()
+        .expect("not serving on a free port");
+    assert!(r.has_label_containing(&format!("serving {} · 0 clients connected", st.url())));
+    let client = foxglove_client(st.addr);
+    r.run(1.0);
+    let st = r.harness.state().foxglove_status().unwrap();
+    assert_eq!(st.clients, 1);
+    assert!(st.queued > 20 && st.dropped == 0, "{st:?}");
+    assert!(r.has_label_containing("1 client connected"));
+    // The port and the counts change from run to run: masked.
+    r.harness.event(egui::Event::PointerGone);
+    r.harness.step();
+    let mut masked: Vec<egui::Rect> = ["serving ws://", "messages sent"]
+        .iter()
+        .map(|t| r.harness.get_by_label_contains(t).rect())
+        .collect();
+    masked.extend(r.volatile_rects());
+    for m in masked {
+        r.harness.mask(m);
+    }
+    r.snapshot_here("settings_foxglove_live");
+    // Off again: the server stops and frees the port.
+    r.click("Serve");
+    assert!(r.harness.state().foxglove_status().is_none());
+    drop(client);
+    std::net::TcpListener::bind(st.addr).unwrap();
+}

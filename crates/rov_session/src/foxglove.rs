@@ -273,6 +273,86 @@ impl Track {
     }
 }
 
+/// Truth older than this is not used for the pose's position, ns.
+pub const TRUTH_MAX_AGE_NS: u64 = 1_000_000_000;
+
+/// The encoded pose messages of one pose.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PoseMessages {
+    /// The pose.
+    pub pose: VehiclePose,
+    /// `/tf`: the `foxglove.FrameTransform`, protobuf.
+    pub transform: Vec<u8>,
+    /// `/vehicle/pose`: the `foxglove.PoseInFrame`, protobuf.
+    pub pose_in_frame: Vec<u8>,
+    /// `/vehicle/track`: the `foxglove.PosesInFrame` when one is due, protobuf.
+    pub track: Option<Vec<u8>>,
+}
+
+/// The pose topics of a stream of records, the one derivation used by the session writer
+/// and the live server: every navigation record gives a pose at most every
+/// `interval_ns` (north and east from the latest truth record at most
+/// [`TRUTH_MAX_AGE_NS`] old, else 0), and the track every [`TRACK_EVERY_S`].
+#[derive(Debug, Clone)]
+pub struct PoseTopics {
+    interval_ns: u64,
+    /// (time, north, east) of the latest truth record.
+    last_truth: Option<(u64, f64, f64)>,
+    last_pose_ns: Option<u64>,
+    track: Track,
+}
+
+impl PoseTopics {
+    /// Poses at most every `interval_ns` of record time; `u64::MAX`: none.
+    pub fn new(interval_ns: u64) -> Self {
+        Self {
+            interval_ns,
+            last_truth: None,
+            last_pose_ns: None,
+            track: Track::default(),
+        }
+    }
+
+    /// Takes the position of a `/truth/state` record at `t_ns`.
+    pub fn truth(&mut self, t_ns: u64, t: &TruthRecord) {
+        self.last_truth =
+            (t.north_m.is_finite() && t.east_m.is_finite()).then_some((t_ns, t.north_m, t.east_m));
+    }
+
+    /// The pose messages of a `/telemetry/nav` record at `t_ns`, when due.
+    pub fn nav(&mut self, t_ns: u64, nav: &NavRecord) -> Option<PoseMessages> {
+        if self.interval_ns == u64::MAX {
+            return None;
+        }
+        let due = self
+            .last_pose_ns
+            .is_none_or(|l| t_ns < l || t_ns - l >= self.interval_ns);
+        if !due {
+            return None;
+        }
+        let truth = self
+            .last_truth
+            .filter(|(t, _, _)| t_ns.abs_diff(*t) <= TRUTH_MAX_AGE_NS)
+            .map(|(_, north_m, east_m)| TruthRecord {
+                north_m,
+                east_m,
+                ..TruthRecord::default()
+            });
+        VehiclePose::from_nav(t_ns, nav, truth.as_ref()).map(|p| self.pose(&p))
+    }
+
+    /// The messages of a pose from any source (it counts as the latest pose).
+    pub fn pose(&mut self, p: &VehiclePose) -> PoseMessages {
+        self.last_pose_ns = Some(p.t_ns);
+        PoseMessages {
+            pose: *p,
+            transform: encode(&frame_transform(p)),
+            pose_in_frame: encode(&pose_in_frame(p)),
+            track: self.track.push(p).map(|t| encode(&t)),
+        }
+    }
+}
+
 /// Why a video access unit was refused or a video message skipped.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 pub enum VideoError {

@@ -79,7 +79,7 @@ pub use playback::{MAX_SPEED, MIN_SPEED, Playback};
 pub use record::{
     AutopilotRecord, Cell, Direction, EventRecord, LinkRecord, LinkState, Mode, NavRecord,
     ObserverRecord, PilotRecord, Record, SessionInfo, Severity, StatusRecord, ThrustRecord, Topic,
-    TruthRecord,
+    TruthRecord, encode_json,
 };
 pub use recover::{RecoveryReport, recover, recovered_path};
 pub use resim::{ChannelFit, ResimOptions, Resimulation, resimulate, resimulate_series};

@@ -14,6 +14,8 @@ use serde::de::{DeserializeOwned, Deserializer};
 use serde::{Deserialize, Serialize};
 use serde_json::{Value, json};
 
+use crate::error::SessionError;
+
 /// Raw frames sent to the vehicle.
 pub const TOPIC_PRO4_TX: &str = "/pro4/tx";
 /// Raw frames received from the vehicle.
@@ -439,6 +441,62 @@ pub trait Record:
     fn json_schema() -> Value;
     /// The CSV cells of the record, in [`Record::FIELDS`] order.
     fn cells(&self) -> Vec<Cell>;
+}
+
+/// A `Write` into a `Vec` that refuses to grow past a cap.
+struct CappedBuf<'a> {
+    buf: &'a mut Vec<u8>,
+    cap: usize,
+    overflow: bool,
+}
+
+impl std::io::Write for CappedBuf<'_> {
+    fn write(&mut self, data: &[u8]) -> std::io::Result<usize> {
+        if self.buf.len().saturating_add(data.len()) > self.cap {
+            self.overflow = true;
+            return Err(std::io::Error::other("message size cap reached"));
+        }
+        self.buf.extend_from_slice(data);
+        Ok(data.len())
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        Ok(())
+    }
+}
+
+/// Encodes a record as its topic's JSON message into `out` (cleared first): the one
+/// encoding of the JSON topics, used by the session writer and the live server alike.
+/// Encoding stops at `max_bytes`, so an oversized record costs no more than the cap.
+///
+/// # Errors
+/// [`SessionError::MessageTooLarge`] past the cap (`out` is then emptied and shrunk),
+/// [`SessionError::Encode`] if serde refuses the record.
+pub fn encode_json<T: Record>(
+    record: &T,
+    max_bytes: usize,
+    out: &mut Vec<u8>,
+) -> Result<(), SessionError> {
+    out.clear();
+    let mut sink = CappedBuf {
+        buf: out,
+        cap: max_bytes,
+        overflow: false,
+    };
+    let res = serde_json::to_writer(&mut sink, record);
+    if sink.overflow {
+        out.clear();
+        out.shrink_to(4096);
+        return Err(SessionError::MessageTooLarge {
+            topic: T::TOPIC.name().into(),
+            len: max_bytes.saturating_add(1),
+            max: max_bytes,
+        });
+    }
+    res.map_err(|e| SessionError::Encode {
+        topic: T::TOPIC.name().into(),
+        detail: e.to_string(),
+    })
 }
 
 /// Defines a record struct with its serde attributes, schema and CSV cells.

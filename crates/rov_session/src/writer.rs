@@ -56,13 +56,12 @@
 
 use std::collections::BTreeMap;
 use std::fs::File;
-use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use crate::error::{Result, SessionError, io_err};
-use crate::foxglove::{self, Track, VehiclePose};
+use crate::foxglove::{self, PoseMessages, PoseTopics, VehiclePose};
 use crate::mcap_file::{McapFile, McapOptions};
-use crate::record::{Direction, NavRecord, Record, SessionInfo, Topic, TruthRecord};
+use crate::record::{Direction, NavRecord, Record, SessionInfo, Topic, TruthRecord, encode_json};
 
 /// Nanoseconds per millisecond.
 const MS: u64 = 1_000_000;
@@ -127,14 +126,9 @@ pub struct SessionWriter {
     last_sync_ns: u64,
     unsynced: bool,
     messages: u64,
-    /// (time, north, east) of the latest truth record.
-    last_truth: Option<(u64, f64, f64)>,
-    last_pose_ns: Option<u64>,
-    track: Track,
+    /// The pose topics derived from the navigation and truth records.
+    poses: PoseTopics,
 }
-
-/// Truth older than this is not used for the pose's position, ns.
-const TRUTH_MAX_AGE_NS: u64 = 1_000_000_000;
 
 impl std::fmt::Debug for SessionWriter {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -143,28 +137,6 @@ impl std::fmt::Debug for SessionWriter {
             .field("messages", &self.messages)
             .field("opts", &self.opts)
             .finish_non_exhaustive()
-    }
-}
-
-/// A `Write` into a `Vec` that refuses to grow past a cap.
-struct CappedBuf<'a> {
-    buf: &'a mut Vec<u8>,
-    cap: usize,
-    overflow: bool,
-}
-
-impl Write for CappedBuf<'_> {
-    fn write(&mut self, data: &[u8]) -> std::io::Result<usize> {
-        if self.buf.len().saturating_add(data.len()) > self.cap {
-            self.overflow = true;
-            return Err(std::io::Error::other("message size cap reached"));
-        }
-        self.buf.extend_from_slice(data);
-        Ok(data.len())
-    }
-
-    fn flush(&mut self) -> std::io::Result<()> {
-        Ok(())
     }
 }
 
@@ -200,7 +172,6 @@ impl SessionWriter {
             path,
             mcap,
             sync_handle,
-            opts,
             channels: [None; Topic::ALL.len()],
             sequences: [0; Topic::ALL.len()],
             scratch: Vec::with_capacity(4096),
@@ -208,9 +179,8 @@ impl SessionWriter {
             last_sync_ns: t_ns,
             unsynced: true,
             messages: 0,
-            last_truth: None,
-            last_pose_ns: None,
-            track: Track::default(),
+            poses: PoseTopics::new(opts.pose_interval_ns),
+            opts,
         };
         let started_ns = if info.started_unix_s.is_finite() && info.started_unix_s > 0.0 {
             (info.started_unix_s * 1e9) as u64
@@ -307,58 +277,15 @@ impl SessionWriter {
 
     /// Writes a record on its topic at `t_ns`, then [`SessionWriter::flush_if_due`].
     pub fn write<T: Record>(&mut self, t_ns: u64, record: &T) -> Result<()> {
-        self.scratch.clear();
-        let mut sink = CappedBuf {
-            buf: &mut self.scratch,
-            cap: self.opts.max_message_bytes,
-            overflow: false,
-        };
-        let res = serde_json::to_writer(&mut sink, record);
-        if sink.overflow {
-            self.scratch.clear();
-            self.scratch.shrink_to(4096);
-            return Err(SessionError::MessageTooLarge {
-                topic: T::TOPIC.name().into(),
-                len: self.opts.max_message_bytes.saturating_add(1),
-                max: self.opts.max_message_bytes,
-            });
-        }
-        res.map_err(|e| SessionError::Encode {
-            topic: T::TOPIC.name().into(),
-            detail: e.to_string(),
-        })?;
+        encode_json(record, self.opts.max_message_bytes, &mut self.scratch)?;
         self.put(T::TOPIC, t_ns, None)?;
         let any: &dyn std::any::Any = record;
         if let Some(t) = any.downcast_ref::<TruthRecord>() {
-            self.last_truth = (t.north_m.is_finite() && t.east_m.is_finite())
-                .then_some((t_ns, t.north_m, t.east_m));
-        } else if let Some(nav) = any.downcast_ref::<NavRecord>() {
-            self.nav_pose(t_ns, nav)?;
-        }
-        Ok(())
-    }
-
-    /// The pose topics of a navigation record, when due.
-    fn nav_pose(&mut self, t_ns: u64, nav: &NavRecord) -> Result<()> {
-        if self.opts.pose_interval_ns == u64::MAX {
-            return Ok(());
-        }
-        let due = self
-            .last_pose_ns
-            .is_none_or(|l| t_ns < l || t_ns - l >= self.opts.pose_interval_ns);
-        if !due {
-            return Ok(());
-        }
-        let truth = self
-            .last_truth
-            .filter(|(t, _, _)| t_ns.abs_diff(*t) <= TRUTH_MAX_AGE_NS)
-            .map(|(_, north_m, east_m)| TruthRecord {
-                north_m,
-                east_m,
-                ..TruthRecord::default()
-            });
-        if let Some(p) = VehiclePose::from_nav(t_ns, nav, truth.as_ref()) {
-            self.write_pose(&p)?;
+            self.poses.truth(t_ns, t);
+        } else if let Some(nav) = any.downcast_ref::<NavRecord>()
+            && let Some(m) = self.poses.nav(t_ns, nav)
+        {
+            self.put_pose(&m)?;
         }
         Ok(())
     }
@@ -367,16 +294,18 @@ impl SessionWriter {
     /// [`crate::foxglove`]). The writer calls this itself for every navigation record; call
     /// it directly only for poses from another source.
     pub fn write_pose(&mut self, p: &VehiclePose) -> Result<()> {
-        self.last_pose_ns = Some(p.t_ns);
-        let tf = foxglove::encode(&foxglove::frame_transform(p));
-        self.put(Topic::Transform, p.t_ns, Some(&tf))?;
-        let pose = foxglove::encode(&foxglove::pose_in_frame(p));
-        self.put(Topic::Pose, p.t_ns, Some(&pose))?;
-        if let Some(track) = self.track.push(p) {
-            let bytes = foxglove::encode(&track);
-            if bytes.len() <= self.opts.max_message_bytes {
-                self.put(Topic::Track, p.t_ns, Some(&bytes))?;
-            }
+        let m = self.poses.pose(p);
+        self.put_pose(&m)
+    }
+
+    fn put_pose(&mut self, m: &PoseMessages) -> Result<()> {
+        let t_ns = m.pose.t_ns;
+        self.put(Topic::Transform, t_ns, Some(&m.transform))?;
+        self.put(Topic::Pose, t_ns, Some(&m.pose_in_frame))?;
+        if let Some(track) = &m.track
+            && track.len() <= self.opts.max_message_bytes
+        {
+            self.put(Topic::Track, t_ns, Some(track))?;
         }
         Ok(())
     }

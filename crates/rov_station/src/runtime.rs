@@ -21,6 +21,8 @@
 //!   the station's code.
 //! * `station-gamepad` (feature `gamepad`): gilrs with hotplug; see [`gamepad`].
 //! * `station-recorder` while recording; see [`recorder`].
+//! * `station-foxglove-feed` and the `station-foxglove` tokio runtime while the live
+//!   Foxglove server runs (it outlives a station); see [`foxglove_live`].
 //!
 //! The GUI talks to all of this through a [`StationHandle`]: latest-value reads (a lock
 //! held only for a copy), a bounded command queue (overflow counted), and a history feed
@@ -48,6 +50,7 @@ use crate::core::{Snapshot, StationCommand};
 pub mod alarms;
 pub mod dive;
 mod engine;
+pub mod foxglove_live;
 #[cfg(feature = "gamepad")]
 pub mod gamepad;
 pub mod history;
@@ -262,6 +265,9 @@ pub enum RuntimeCommand {
     StartRecording(PathBuf),
     /// Stop recording.
     StopRecording,
+    /// Serve the station's records to a live Foxglove server through this tap (`None`:
+    /// stop serving); see [`foxglove_live`].
+    FoxgloveLive(Option<foxglove_live::LiveTap>),
     /// Replay controls (replay sources only).
     Replay(ReplayCommand),
     /// A new gamepad map (axes, buttons, shift layer).

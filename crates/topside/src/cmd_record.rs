@@ -6,6 +6,10 @@
 //!   simulated vehicle), like a dive flown from the window.
 //! * `--fast`: the same engine on virtual time as fast as the machine goes
 //!   (`VirtualStation`); the recorder waits for the disk instead of dropping messages.
+//! * `--foxglove-ws ADDR:PORT` (or `[foxglove] enabled = true` in the settings): the dive
+//!   is also served live to Foxglove while it is flown (`rov_station::runtime::
+//!   foxglove_live`); stderr says where. A bad address is a warning naming it, and the
+//!   dive is recorded without the server.
 //!
 //! # Pilot script
 //! A TOML file with a list of timed commands, applied when the dive's clock reaches
@@ -57,6 +61,7 @@ use anyhow::{Context as _, bail};
 use clap::Args;
 use rov_control::{Axis, ModeCommand, PilotInput};
 use rov_station::StationCommand;
+use rov_station::runtime::foxglove_live::LiveServer;
 use rov_station::runtime::{
     CameraCommand, Runtime, RuntimeCommand, RuntimeConfig, StationHandle, VirtualStation,
 };
@@ -98,6 +103,10 @@ pub struct RecordArgs {
     /// none.
     #[arg(long, value_name = "SOURCE", default_value = "sim")]
     video: String,
+    /// Serve the dive live to Foxglove on ADDR:PORT while it is flown (port 0: any free
+    /// port; stderr says which).
+    #[arg(long, value_name = "ADDR:PORT")]
+    foxglove_ws: Option<String>,
 }
 
 /// Stick positions in a script.
@@ -340,18 +349,30 @@ impl<'a> Pilot<'a> {
     }
 }
 
+/// The runtime settings (the camera source from --video), and the live Foxglove server
+/// when asked for (a bad address is a warning: the dive is recorded without it).
 fn runtime_config(
-    seed: u64,
-    video: &str,
+    args: &RecordArgs,
     config: Option<&std::path::Path>,
-) -> anyhow::Result<RuntimeConfig> {
+) -> anyhow::Result<(RuntimeConfig, Option<LiveServer>)> {
+    let (cfg, mut foxglove, label) = crate::cmd_station::config_and_foxglove(None, config)?;
+    let live =
+        crate::foxglove_ws::wanted(args.foxglove_ws.as_deref(), &mut foxglove).and_then(|addr| {
+            match crate::foxglove_ws::start(&addr, args.foxglove_ws.is_some(), &label) {
+                Ok(s) => Some(s),
+                Err(e) => {
+                    eprintln!("warning: {e}; recording without the live server");
+                    None
+                }
+            }
+        });
     let mut cfg = RuntimeConfig {
         gamepad: false,
-        sim_seed: seed,
-        ..crate::cmd_station::config(None, config)?
+        sim_seed: args.seed,
+        ..cfg
     };
-    cfg.video.source = video.to_string();
-    Ok(cfg)
+    cfg.video.source.clone_from(&args.video);
+    Ok((cfg, live))
 }
 
 /// The camera's figures for the summary; a source that did not start is said on stderr.
@@ -370,6 +391,13 @@ fn video_json(handle: &StationHandle) -> serde_json::Value {
         "fps": s.stats.as_ref().map(|x| x.fps),
         "encoder_dropped": s.record_dropped,
     })
+}
+
+/// Gives the station a tap on the live server (before anything is recorded).
+fn serve_live(live: Option<&LiveServer>, handle: &StationHandle) {
+    if let Some(tap) = live.and_then(|l| l.tap(handle.now_us())) {
+        handle.command(RuntimeCommand::FoxgloveLive(Some(tap)));
+    }
 }
 
 /// Runs `topside record`.
@@ -405,21 +433,41 @@ pub fn run(args: RecordArgs, config: Option<&std::path::Path>) -> anyhow::Result
     if args.fast && args.video == "test" {
         bail!("--video test runs on wall time; with --fast (virtual time) use --video sim or none");
     }
-    let cfg = runtime_config(args.seed, &args.video, config)?;
+    let (cfg, live) = runtime_config(&args, config)?;
     let wall = Instant::now();
     let (refused_arm, control, video) = if args.fast {
-        record_fast(cfg, &args, script)?
+        record_fast(cfg, &args, script, live.as_ref())?
     } else {
-        record_real_time(cfg, &args, script)?
+        record_real_time(cfg, &args, script, live.as_ref())?
     };
     let wall_s = wall.elapsed().as_secs_f64();
-    summarize(&args, wall_s, refused_arm, control, video)
+    let live_json = live.as_ref().map_or(serde_json::Value::Null, |l| {
+        let st = l.status();
+        eprintln!(
+            "Foxglove live: {} messages sent, {} records dropped",
+            st.sent, st.dropped
+        );
+        serde_json::json!({
+            "url": st.url(),
+            "sent": st.sent,
+            "dropped": st.dropped,
+            "failed": st.failed,
+        })
+    });
+    drop(live);
+    summarize(&args, wall_s, refused_arm, control, video, live_json)
 }
 
 type Outcome = (bool, serde_json::Value, serde_json::Value);
 
-fn record_fast(cfg: RuntimeConfig, args: &RecordArgs, script: Script) -> anyhow::Result<Outcome> {
+fn record_fast(
+    cfg: RuntimeConfig,
+    args: &RecordArgs,
+    script: Script,
+    live: Option<&LiveServer>,
+) -> anyhow::Result<Outcome> {
     let (mut station, handle) = VirtualStation::new(cfg).context("starting the station")?;
+    serve_live(live, &handle);
     handle.start_recording(&args.out);
     let mut pilot = Pilot::new(&handle, script);
     let steps = (args.duration_s / STEP_S).ceil() as u64;
@@ -465,8 +513,10 @@ fn record_real_time(
     cfg: RuntimeConfig,
     args: &RecordArgs,
     script: Script,
+    live: Option<&LiveServer>,
 ) -> anyhow::Result<Outcome> {
     let handle = Runtime::start(cfg).context("starting the station")?;
+    serve_live(live, &handle);
     handle.start_recording(&args.out);
     let mut pilot = Pilot::new(&handle, script);
     let t0 = Instant::now();
@@ -500,6 +550,7 @@ fn summarize(
     refused_arm: bool,
     control: serde_json::Value,
     video: serde_json::Value,
+    foxglove: serde_json::Value,
 ) -> anyhow::Result<ExitCode> {
     let session = rov_session::open(&args.out)
         .with_context(|| format!("reading back {}", args.out.display()))?;
@@ -526,6 +577,7 @@ fn summarize(
             "topics": topics,
             "control": control,
             "video": video,
+            "foxglove": foxglove,
         });
         println!("{j}");
     } else {

@@ -20,6 +20,9 @@
 //! create the user's file. Every session is recorded from the
 //! moment the station starts, to `./recordings/session-<unix time>.mcap` (`--recordings DIR` elsewhere; REC
 //! stops and restarts it; `--no-record` starts without recording).
+//! * `--foxglove-ws ADDR:PORT` (or `[foxglove] enabled = true`): the live Foxglove server
+//!   (`rov_station::runtime::foxglove_live`); a bad address is a warning naming it, and
+//!   the window opens without the server.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -27,25 +30,27 @@ use std::sync::atomic::Ordering;
 
 use anyhow::Context as _;
 use rov_gui::{RealBackend, ScreenshotRequest, StationApp, Tab};
-use rov_station::runtime::settings::{self, StationSettings};
+use rov_station::runtime::settings::{self, FoxgloveSettings, StationSettings};
 use rov_station::runtime::{Connection, Runtime, RuntimeConfig};
 
 /// The runtime settings (see [`crate::config_file`]), on the given port or the
-/// simulator. Shared with `topside record`.
-pub fn config(
+/// simulator, and the `[foxglove]` settings, with the file's name for messages. Shared
+/// with `topside record`.
+pub fn config_and_foxglove(
     port: Option<String>,
     config: Option<&std::path::Path>,
-) -> anyhow::Result<RuntimeConfig> {
-    Ok(config_and_settings(port, config)?.0)
+) -> anyhow::Result<(RuntimeConfig, FoxgloveSettings, String)> {
+    let (cfg, _, path, fox) = config_all(port, config)?;
+    Ok((cfg, fox, path.display().to_string()))
 }
 
-/// [`config`] and the pilot's `[station]` settings: control, alarms, stick shaping and
-/// the gamepad map come from the same file, checked with the file, key, value and range
-/// named on an error.
-pub fn config_and_settings(
+/// The runtime settings, the pilot's `[station]` settings, where the Settings tab saves
+/// and `[foxglove]`: control, alarms, stick shaping and the gamepad map come from the
+/// same file, checked with the file, key, value and range named on an error.
+fn config_all(
     port: Option<String>,
     config: Option<&std::path::Path>,
-) -> anyhow::Result<(RuntimeConfig, StationSettings, PathBuf)> {
+) -> anyhow::Result<(RuntimeConfig, StationSettings, PathBuf, FoxgloveSettings)> {
     let user = crate::config_file::user_config_path();
     let loaded = crate::config_file::load(config, user.as_deref())?;
     let label = loaded.path.as_ref().map_or_else(
@@ -79,6 +84,7 @@ pub fn config_and_settings(
         },
         station,
         save_to,
+        pilot.foxglove,
     ))
 }
 
@@ -97,6 +103,7 @@ pub fn run_station(
     record_to: Option<PathBuf>,
     screenshot: Option<(PathBuf, f64)>,
     window_size: Option<String>,
+    foxglove_ws: Option<String>,
 ) -> anyhow::Result<ExitCode> {
     let size = match window_size.as_deref().map(parse_size) {
         Some(Some(s)) => Some(s),
@@ -107,7 +114,7 @@ pub fn run_station(
         None => None,
     };
     let explicit_port = port.is_some();
-    let (mut cfg, station, save_to) = config_and_settings(port, config_path)?;
+    let (mut cfg, station, save_to, mut foxglove) = config_all(port, config_path)?;
     if !explicit_port && !station.serial_port.trim().is_empty() {
         cfg.connection = Connection::Serial(station.serial_port.trim().to_string());
     }
@@ -130,12 +137,29 @@ pub fn run_station(
     };
     // Every connection records from its start (the app starts it, with the same file
     // naming as the REC button), unless --no-record.
+    // The live Foxglove server: a bad address is shown in the Settings tab and on stderr;
+    // the station opens anyway.
+    let flag = foxglove_ws.is_some();
+    let live_server = match crate::foxglove_ws::wanted(foxglove_ws.as_deref(), &mut foxglove) {
+        Some(addr) => {
+            crate::foxglove_ws::start(&addr, flag, &save_to.display().to_string()).map(Some)
+        }
+        None => Ok(None),
+    };
+    if let Err(e) = &live_server {
+        eprintln!("warning: {e}");
+    }
+    let fox_error = live_server.as_ref().err().cloned();
     let mut app = StationApp::new(Box::new(backend), None)
         .with_record_on_connect(record_to.is_some() && station.record_on_connect)
         .with_settings(save_to, cfg.alarms, station)
         .with_gamepad(cfg.pad_map.clone(), cfg.shaping)
-        .with_video_settings(cfg.video.clone());
+        .with_video_settings(cfg.video.clone())
+        .with_foxglove(foxglove, live_server);
     app.connect_handle(live);
+    if let Some(e) = fox_error {
+        app.set_message(e);
+    }
     if let Some(e) = error {
         eprintln!("warning: {e}");
         app.set_message(e);

@@ -20,6 +20,7 @@ mod cmd_sim_reference;
 mod cmd_sim_run;
 mod cmd_station;
 mod config_file;
+mod foxglove_ws;
 
 use clap::{Parser, Subcommand};
 
@@ -46,6 +47,10 @@ struct Cli {
     /// Directory for the station's recordings.
     #[arg(long, value_name = "DIR", default_value = "recordings")]
     recordings: std::path::PathBuf,
+    /// Serve the station's channels live to Foxglove on ADDR:PORT (e.g. 127.0.0.1:8765;
+    /// the Settings tab and `[foxglove]` in the settings file do the same).
+    #[arg(long, value_name = "ADDR:PORT")]
+    foxglove_ws: Option<String>,
     /// Test hook: screenshot the window to this PNG, then exit.
     #[arg(long, value_name = "PATH", hide = true)]
     screenshot: Option<std::path::PathBuf>,
@@ -104,6 +109,7 @@ fn main() -> std::process::ExitCode {
             (!cli.no_record).then_some(cli.recordings),
             cli.screenshot.map(|p| (p, cli.screenshot_after_s)),
             cli.window_size,
+            cli.foxglove_ws,
         ),
     };
     match result {

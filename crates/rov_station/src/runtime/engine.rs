@@ -60,6 +60,8 @@ pub(crate) struct Engine {
     tilt_deg: i8,
     focus_pct: i8,
     recorder: Option<Recorder>,
+    /// The live Foxglove server's tap (records are copied to it, recording or not).
+    live: Option<crate::runtime::foxglove_live::LiveTap>,
     /// Live sim mode: the vehicle thread's latest truth, for `/truth/state`.
     truth_tap: Option<rov_vehicle::runner::TruthTap>,
     /// The camera (see `video`): the recording's encoder starts and stops with it.
@@ -208,6 +210,7 @@ impl Engine {
             focus_pct: 0,
             recorder: None,
             video: None,
+            live: None,
             truth_tap: None,
             port: None,
             shared,
@@ -242,7 +245,23 @@ impl Engine {
         if let Some(r) = &self.recorder {
             let t = r.t_ns(now_us).max(self.last_record_ns.get());
             self.last_record_ns.set(t);
-            r.send(item(t));
+            let item = item(t);
+            self.serve_live(now_us, &item);
+            r.send(item);
+        } else if self.live.is_some() {
+            self.serve_live(now_us, &item(0));
+        }
+    }
+
+    /// Whether records are wanted (recording, or serving them live).
+    fn records_wanted(&self) -> bool {
+        self.recorder.is_some() || self.live.is_some()
+    }
+
+    /// A copy of a record for the live Foxglove server, if one is attached.
+    fn serve_live(&self, now_us: u64, item: &RecordItem) {
+        if let Some(l) = &self.live {
+            l.send(now_us, item);
         }
     }
 
@@ -274,11 +293,12 @@ impl Engine {
         }
     }
 
-    /// Records the simulated vehicle's truth (`/truth/state`) when a recording is running.
+    /// Records the simulated vehicle's truth (`/truth/state`) when a recording (or the live
+    /// Foxglove server) is running.
     /// The station's control path never reads it: truth is for the engineer comparing
     /// the estimate with reality afterwards.
     pub fn record_truth(&self, truth: &rov_sim::TruthState, now_us: u64) {
-        if self.recorder.is_some() {
+        if self.records_wanted() {
             let rec = truth_record(truth);
             self.record(|t| RecordItem::Truth(t, rec), now_us);
         }
@@ -457,6 +477,7 @@ impl Engine {
                 self.stop_recording(now_us);
                 link.set_record_frames(false);
             }
+            RuntimeCommand::FoxgloveLive(tap) => self.live = tap,
             RuntimeCommand::Replay(_) => {}
             RuntimeCommand::PadMap(m) => {
                 self.pipeline.view.pilot.pad_map = m.clone();
@@ -1090,7 +1111,7 @@ impl Engine {
         self.pipeline.observer(&observer);
         self.record(|t| RecordItem::Thrust(t, thrust), now_us);
         self.record(|t| RecordItem::Pilot(t, pilot), now_us);
-        if self.recorder.is_some() {
+        if self.records_wanted() {
             let rec = auto.clone();
             self.record(|t| RecordItem::Autopilot(t, rec), now_us);
         }

@@ -27,6 +27,60 @@ pub struct PilotSettings {
     pub shaping: StickShaping,
     /// `[video]`.
     pub video: crate::runtime::video::VideoSettings,
+    /// `[foxglove]`.
+    pub foxglove: FoxgloveSettings,
+}
+
+/// The `[foxglove]` table: the live Foxglove server (off by default).
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+pub struct FoxgloveSettings {
+    /// Serve live when the station starts.
+    pub enabled: bool,
+    /// Where, `ADDR:PORT`.
+    pub ws: String,
+}
+
+/// The live server's default address (Foxglove's usual port, this machine only).
+pub const FOXGLOVE_DEFAULT_WS: &str = "127.0.0.1:8765";
+
+impl Default for FoxgloveSettings {
+    fn default() -> Self {
+        Self {
+            enabled: false,
+            ws: FOXGLOVE_DEFAULT_WS.into(),
+        }
+    }
+}
+
+impl FoxgloveSettings {
+    /// Reads `[foxglove]` (every key optional; unknown keys refused).
+    ///
+    /// # Errors
+    /// [`ConfigError`] naming the file, key, value and allowed range.
+    pub fn from_param_file(f: &ParamFile) -> Result<Self, ConfigError> {
+        let s = Self {
+            enabled: f.bool_or("foxglove.enabled", false)?,
+            ws: f.string_or("foxglove.ws", FOXGLOVE_DEFAULT_WS)?,
+        };
+        f.reject_unknown("foxglove")?;
+        Ok(s)
+    }
+
+    /// The `[foxglove]` table as TOML.
+    #[must_use]
+    pub fn to_toml(&self) -> String {
+        format!(
+            "enabled = {}\nws = {}\n",
+            self.enabled,
+            toml_edit::Value::from(self.ws.as_str())
+        )
+    }
+
+    /// The address to serve on when the station starts, if enabled.
+    #[must_use]
+    pub fn serve_on(&self) -> Option<&str> {
+        self.enabled.then_some(self.ws.trim())
+    }
 }
 
 /// Depth unit shown.
@@ -166,6 +220,7 @@ pub fn load_all(text: &str, label: &str) -> Result<PilotSettings, ConfigError> {
         pad: PadMap::from_param_file(&f)?,
         shaping: StickShaping::from_param_file(&f)?,
         video: crate::runtime::video::VideoSettings::from_param_file(&f)?,
+        foxglove: FoxgloveSettings::from_param_file(&f)?,
     };
     f.reject_unknown("gamepad")?;
     Ok(p)
@@ -183,6 +238,18 @@ pub fn save(path: &Path, alarms: &AlarmConfig, station: &StationSettings) -> Res
         station.to_toml()
     );
     save_tables(path, &fresh, &["alarms", "station"])
+}
+
+/// Writes `[foxglove]` into the file at `path` like [`save`].
+///
+/// # Errors
+/// A message naming the file.
+pub fn save_foxglove(path: &Path, foxglove: &FoxgloveSettings) -> Result<(), String> {
+    save_tables(
+        path,
+        &format!("[foxglove]\n{}", foxglove.to_toml()),
+        &["foxglove"],
+    )
 }
 
 /// Writes `[gamepad]` (axes, shift, buttons, shift buttons, stick shaping) into the file
@@ -310,6 +377,36 @@ mod tests {
             e.contains("station.depth_unit") && e.contains("one of m, ft"),
             "{e}"
         );
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
+    fn foxglove_table_is_off_by_default_round_trips_and_names_bad_keys() {
+        let p = load_all("", "s.toml").unwrap();
+        assert_eq!(p.foxglove, FoxgloveSettings::default());
+        assert_eq!(p.foxglove.serve_on(), None);
+        let dir = std::env::temp_dir().join(format!("rov_settings_fox_{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("station.toml");
+        std::fs::write(&path, "[station]\n# kept\nbaud = 115200\n").unwrap();
+        let on = FoxgloveSettings {
+            enabled: true,
+            ws: "0.0.0.0:9000".into(),
+        };
+        save_foxglove(&path, &on).unwrap();
+        let text = std::fs::read_to_string(&path).unwrap();
+        assert!(text.contains("# kept"), "{text}");
+        let back = load_all(&text, "station.toml").unwrap().foxglove;
+        assert_eq!(back, on);
+        assert_eq!(back.serve_on(), Some("0.0.0.0:9000"));
+        let e = load_all("[foxglove]\nport = 1\n", "config/station.toml")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("foxglove.port"), "{e}");
+        let e = load_all("[foxglove]\nenabled = \"yes\"\n", "config/station.toml")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("foxglove.enabled"), "{e}");
         std::fs::remove_dir_all(&dir).ok();
     }
 }
