@@ -85,8 +85,7 @@ fn noise_floor_min(ch: Channel) -> f64 {
 /// Wraps an angle difference to (−180, 180] degrees.
 #[inline]
 pub fn wrap180(x: f64) -> f64 {
-    let y = (x + 180.0).rem_euclid(360.0) - 180.0;
-    if y == -180.0 { 180.0 } else { y }
+    rov_types::angle::wrap_deg_180_incl(x)
 }
 
 /// Kind of manoeuvre segment.

@@ -193,15 +193,21 @@ fn rk4(
             model.eta_nu_derivative(e, n, tau, cur)
         }
     };
-    let (e1, n1) = f(&x.eta, &x.nu);
-    let (e2, n2) = f(&(x.eta + e1 * (0.5 * h)), &(x.nu + n1 * (0.5 * h)));
-    let (e3, n3) = f(&(x.eta + e2 * (0.5 * h)), &(x.nu + n2 * (0.5 * h)));
-    let (e4, n4) = f(&(x.eta + e3 * h), &(x.nu + n3 * h));
-    let s = h / 6.0;
-    ModelState::new(
-        x.eta + (e1 + e2 * 2.0 + e3 * 2.0 + e4) * s,
-        x.nu + (n1 + n2 * 2.0 + n3 * 2.0 + n4) * s,
-    )
+    // The one RK4 (rov_dynamics::integrators) on the [η; ν] pair.
+    let x0 = rov_dynamics::integrators::EtaNu {
+        eta: x.eta,
+        nu: x.nu,
+    };
+    let x1 = rov_dynamics::integrators::rk4_step(
+        |_, s: &rov_dynamics::integrators::EtaNu| {
+            let (eta, nu) = f(&s.eta, &s.nu);
+            rov_dynamics::integrators::EtaNu { eta, nu }
+        },
+        0.0,
+        &x0,
+        h,
+    );
+    ModelState::new(x1.eta, x1.nu)
 }
 
 /// RK4 on the quaternion 13-state (6-DOF vehicle files: valid at any attitude); the
