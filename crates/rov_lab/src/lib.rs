@@ -19,6 +19,7 @@ pub mod calibrate;
 pub mod catalog;
 pub mod data;
 pub mod diagnose;
+pub mod engine;
 mod error;
 pub mod evaluate;
 pub mod ingest;
@@ -35,6 +36,7 @@ pub mod verdict;
 
 pub use catalog::{EffectId, parse_effect_list};
 pub use data::Run;
+pub use engine::{ChannelFit, fit_runs, load_model};
 pub use error::LabError;
 pub use model::{BaseKind, LabModel};
 pub use persist::{load_extended_model, load_lab_model, save_extended_model};

@@ -1,9 +1,12 @@
-//! Error metrics per channel: fit % (MATLAB `compare`: 100·(1 − ‖y − ŷ‖/‖y − ȳ‖)),
-//! RMSE, max |e|, bias (mean e), drift rate (least-squares slope of e(t)), with e = ŷ − y
-//! wrapped to ±180° for heading. Fit % is left out (`None`) when the measured channel
-//! barely moves (‖y − ȳ‖ below 3 noise floors per sample): report RMSE then.
+//! Error metrics per channel: fit % (MATLAB `compare`: 100·(1 − ‖y − ŷ‖/‖y − ȳ‖)) and
+//! RMSE from [`rov_types::fit`] (the one implementation; heading and roll errors wrapped
+//! to ±180°), and beside them max |e|, bias (mean e) and drift rate (least-squares slope
+//! of e(t)), with e = ŷ − y. The lab's layer on top is the noise-floor gate: fit % is left
+//! out (`None`) when the measured channel barely moves (‖y − ȳ‖ below 3 noise floors per
+//! sample): report RMSE then.
 
 use rov_dynamics::models::Channel;
+use rov_types::fit::{ErrorKind, fit, fit_pooled};
 use serde::Serialize;
 
 use crate::data::{Run, ch_index, ch_wraps, wrap180};
@@ -33,11 +36,54 @@ pub fn residual(ch: Channel, y: f64, yhat: f64) -> f64 {
     if ch_wraps(ch) { wrap180(e) } else { e }
 }
 
+/// How [`rov_types::fit`] forms a channel's error.
+pub fn error_kind(ch: Channel) -> ErrorKind {
+    ErrorKind::angular_if(ch_wraps(ch))
+}
+
 /// Residuals of a channel over a run.
 pub fn residuals(run: &Run, pred: &Prediction, ch: Channel) -> Option<Vec<f64>> {
     let y = run.channel(ch)?;
     let p = pred.channel(ch)?;
     Some(y.iter().zip(p).map(|(a, b)| residual(ch, *a, *b)).collect())
+}
+
+/// (measured, predicted) pairs and the sample index of each.
+type Pairs = (Vec<(f64, f64)>, Vec<usize>);
+
+/// The (measured, predicted) pairs of a channel over samples `range` where both are
+/// finite, with the sample indices.
+fn finite_pairs(
+    run: &Run,
+    pred: &Prediction,
+    ch: Channel,
+    range: std::ops::Range<usize>,
+) -> Option<Pairs> {
+    let y = run.channel(ch)?;
+    let p = pred.channel(ch)?;
+    let (mut pairs, mut idx) = (Vec::new(), Vec::new());
+    for k in range {
+        let (Some(yk), Some(pk)) = (y.get(k), p.get(k)) else {
+            continue;
+        };
+        if yk.is_finite() && pk.is_finite() {
+            pairs.push((*yk, *pk));
+            idx.push(k);
+        }
+    }
+    Some((pairs, idx))
+}
+
+/// The noise-floor gate: whether the measurement moves enough (‖y − ȳ‖ above 3 noise
+/// floors per √sample) for fit % to mean something.
+fn excited(pairs: &[(f64, f64)], noise: f64) -> bool {
+    let n = pairs.len();
+    if n == 0 {
+        return false;
+    }
+    let mean = pairs.iter().map(|(y, _)| y).sum::<f64>() / n as f64;
+    let dev2: f64 = pairs.iter().map(|(y, _)| (y - mean) * (y - mean)).sum();
+    dev2 > 0.0 && dev2.sqrt() > 3.0 * noise * (n as f64).sqrt()
 }
 
 /// Metrics over samples `range` of a run.
@@ -47,39 +93,26 @@ pub fn channel_metrics_range(
     ch: Channel,
     range: std::ops::Range<usize>,
 ) -> Option<ChannelMetrics> {
-    let y = run.channel(ch)?;
-    let p = pred.channel(ch)?;
+    let (pairs, idx) = finite_pairs(run, pred, ch, range.clone())?;
+    let core = fit(&pairs, error_kind(ch));
+    let rmse = core.rmse?;
+    let n = core.samples;
     let noise = run.noise[ch_index(ch)];
-    let mut n = 0usize;
-    let (mut se, mut sy, mut syy, mut max_abs, mut sum_e) = (0.0, 0.0, 0.0, 0.0f64, 0.0);
+    let fit_pct = core.fit_pct.filter(|_| excited(&pairs, noise));
+    // The lab's further numbers on the residual e = ŷ − y.
+    let (mut max_abs, mut sum_e) = (0.0f64, 0.0);
     let (mut st, mut stt, mut ste) = (0.0, 0.0, 0.0);
     let t0 = run.t.get(range.start).copied().unwrap_or(0.0);
-    for k in range {
-        let (Some(yk), Some(pk)) = (y.get(k), p.get(k)) else {
-            continue;
-        };
-        if !(yk.is_finite() && pk.is_finite()) {
-            continue;
-        }
-        let e = residual(ch, *yk, *pk);
-        let t = run.t[k] - t0;
-        n += 1;
-        se += e * e;
+    for ((y, yh), k) in pairs.iter().zip(&idx) {
+        let e = residual(ch, *y, *yh);
+        let t = run.t[*k] - t0;
         sum_e += e;
         max_abs = max_abs.max(e.abs());
-        sy += yk;
-        syy += yk * yk;
         st += t;
         stt += t * t;
         ste += t * e;
     }
-    if n == 0 {
-        return None;
-    }
     let nf = n as f64;
-    let var_y = (syy - sy * sy / nf).max(0.0);
-    let fit_pct = (var_y.sqrt() > 3.0 * noise * nf.sqrt() && var_y > 0.0)
-        .then(|| 100.0 * (1.0 - (se / var_y).sqrt()));
     let denom = stt - st * st / nf;
     let drift = if denom > 1e-12 {
         (ste - st * sum_e / nf) / denom
@@ -88,7 +121,7 @@ pub fn channel_metrics_range(
     };
     Some(ChannelMetrics {
         fit_pct,
-        rmse: (se / nf).sqrt(),
+        rmse,
         max_abs,
         bias: sum_e / nf,
         drift_per_s: drift,
@@ -101,39 +134,37 @@ pub fn channel_metrics(run: &Run, pred: &Prediction, ch: Channel) -> Option<Chan
     channel_metrics_range(run, pred, ch, 0..run.len())
 }
 
-/// Pooled metrics over several runs (fit % from the pooled sums).
+/// Pooled metrics over several runs: fit % and RMSE from [`rov_types::fit::fit_pooled`]
+/// (each run's variation around its own mean), fit % shown when any run passes the
+/// noise-floor gate.
 pub fn pooled_metrics(items: &[(&Run, &Prediction)], ch: Channel) -> Option<ChannelMetrics> {
     let mut n = 0usize;
-    let (mut se, mut sum_e, mut max_abs, mut ss_y, mut drift_w) = (0.0, 0.0, 0.0f64, 0.0, 0.0);
+    let (mut sum_e, mut max_abs, mut drift_w) = (0.0, 0.0f64, 0.0);
     let mut any_fit = false;
+    let mut stretches: Vec<Vec<(f64, f64)>> = Vec::new();
     for (run, pred) in items {
         let Some(m) = channel_metrics(run, pred, ch) else {
             continue;
         };
-        let Some(y) = run.channel(ch) else { continue };
-        let p = pred.channel(ch).unwrap_or(&[]);
-        let vals: Vec<f64> = y
-            .iter()
-            .zip(p)
-            .filter(|(a, b)| a.is_finite() && b.is_finite())
-            .map(|(a, _)| *a)
-            .collect();
-        let mean = vals.iter().sum::<f64>() / vals.len().max(1) as f64;
-        ss_y += vals.iter().map(|v| (v - mean).powi(2)).sum::<f64>();
+        let Some((pairs, _)) = finite_pairs(run, pred, ch, 0..run.len()) else {
+            continue;
+        };
+        stretches.push(pairs);
         any_fit |= m.fit_pct.is_some();
-        se += m.rmse * m.rmse * m.n as f64;
         sum_e += m.bias * m.n as f64;
         max_abs = max_abs.max(m.max_abs);
         drift_w += m.drift_per_s * m.n as f64;
         n += m.n;
     }
+    let core = fit_pooled(stretches.iter().map(Vec::as_slice), error_kind(ch));
+    let rmse = core.rmse?;
     if n == 0 {
         return None;
     }
     let nf = n as f64;
     Some(ChannelMetrics {
-        fit_pct: (any_fit && ss_y > 0.0).then(|| 100.0 * (1.0 - (se / ss_y).sqrt())),
-        rmse: (se / nf).sqrt(),
+        fit_pct: core.fit_pct.filter(|_| any_fit),
+        rmse,
         max_abs,
         bias: sum_e / nf,
         drift_per_s: drift_w / nf,

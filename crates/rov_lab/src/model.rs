@@ -63,6 +63,17 @@ pub enum BaseKind {
     Vehicle,
 }
 
+impl From<rov_types::model_id::BaseModel> for BaseKind {
+    fn from(b: rov_types::model_id::BaseModel) -> Self {
+        use rov_types::model_id::BaseModel;
+        match b {
+            BaseModel::Model1 => BaseKind::Model1,
+            BaseModel::Model2 => BaseKind::Model2,
+            BaseModel::Model3 => BaseKind::Model3,
+        }
+    }
+}
+
 impl BaseKind {
     /// The three Pro 4 models.
     pub const ALL: [BaseKind; 3] = [BaseKind::Model1, BaseKind::Model2, BaseKind::Model3];
@@ -77,9 +88,10 @@ impl BaseKind {
         }
     }
 
-    /// Parses a Pro 4 base name.
+    /// Parses a Pro 4 base name through the one model identity
+    /// ([`rov_types::model_id::BaseModel`]).
     pub fn parse(s: &str) -> Option<Self> {
-        Self::ALL.iter().copied().find(|k| k.name() == s)
+        rov_types::model_id::BaseModel::from_name(s).map(Self::from)
     }
 
     /// Whether the base has pitch and roll (a vehicle file: see [`LabModel::has_attitude`]).
@@ -1130,34 +1142,61 @@ impl LabModel {
     /// Thrust of thruster `i` for a command in percent (before the power limit), N.
     #[inline]
     pub fn thrust_n(&self, i: usize, pct: f64) -> f64 {
-        let mut u = pct * 0.01;
+        use rov_dynamics::models::vehicle::ThrustCurve;
+        use rov_dynamics::thrusters::{QuadraticThrustMap, ThrustPair};
+        // The dead zone (an effect) reshapes the command before the thrust map.
         let dz = self.fx.deadzone;
-        if dz > 0.0 {
+        let pct = if dz > 0.0 {
+            let u = pct * 0.01;
             let a = (u.abs() - dz).max(0.0) / (1.0 - dz);
-            u = if u < 0.0 { -a } else { a };
-        }
+            100.0 * if u < 0.0 { -a } else { a }
+        } else {
+            pct
+        };
         let g = self.thruster_group(i).index();
-        let f = match &self.base {
+        let (kl, kq, rr) = (
+            self.thrust_lin[g],
+            self.thrust_quad[g],
+            self.fx.reverse_ratio[g],
+        );
+        // The one thrust map (rov_dynamics::thrusters::QuadraticThrustMap): the
+        // calibrated forward pair, and the reverse pair weakened by the asymmetry effect.
+        let map = |fwd: ThrustPair, rev: ThrustPair| QuadraticThrustMap {
+            forward: ThrustPair {
+                linear_n: kl * fwd.linear_n,
+                quadratic_n: kq * fwd.quadratic_n,
+            },
+            reverse: ThrustPair {
+                linear_n: kl * rev.linear_n * rr,
+                quadratic_n: kq * rev.quadratic_n * rr,
+            },
+        };
+        match &self.base {
             Base::Vehicle(v) => {
                 let Some(t) = v.def.thrusters.get(i) else {
                     return 0.0;
                 };
-                let curve = if u >= 0.0 { &t.forward } else { &t.reverse };
-                let (a, b) = curve.parts(u.abs());
-                u.signum() * (self.thrust_lin[g] * a + self.thrust_quad[g] * b)
+                match (t.forward, t.reverse) {
+                    (ThrustCurve::Quadratic(f), ThrustCurve::Quadratic(r)) => {
+                        map(f, r).force_n(pct)
+                    }
+                    _ => {
+                        // A tabulated curve is not quadratic: interpolated in its table.
+                        let u = pct * 0.01;
+                        let curve = if u >= 0.0 { &t.forward } else { &t.reverse };
+                        let (a, b) = curve.parts(u.abs());
+                        let f = u.signum() * (kl * a + kq * b);
+                        if u < 0.0 { f * rr } else { f }
+                    }
+                }
             }
             _ => {
-                let (cl, cq) = (
-                    self.coef_lin.get(i).copied().unwrap_or(0.0),
-                    self.coef_quad.get(i).copied().unwrap_or(0.0),
-                );
-                self.thrust_lin[g] * cl * u + self.thrust_quad[g] * cq * u * u.abs()
+                let pair = ThrustPair {
+                    linear_n: self.coef_lin.get(i).copied().unwrap_or(0.0),
+                    quadratic_n: self.coef_quad.get(i).copied().unwrap_or(0.0),
+                };
+                map(pair, pair).force_n(pct)
             }
-        };
-        if u < 0.0 {
-            f * self.fx.reverse_ratio[g]
-        } else {
-            f
         }
     }
 

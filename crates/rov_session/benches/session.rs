@@ -1,15 +1,14 @@
 //! Session benchmarks: recording cost per 50 Hz tick, opening a one-hour file (through its
-//! summary, and by a full scan), reading it, exporting it, and re-simulating it through
-//! model3.
+//! summary, and by a full scan), reading it and exporting it (a model is compared with a
+//! session by the model lab's engine: `rov_lab`).
 //!
 //! Run: `cargo bench -p rov_session -- --warm-up-time 1 --measurement-time 3`
 //!
 //! Targets: a tick (every topic of one 20 ms tick) < 400 µs (2 % of one core); open a
 //! one-hour file through its summary < 50 ms (an 8-hour file must open in < 2 s with
-//! everything else the tools do); re-simulate one hour through model3 < 2 s. The one-hour
-//! file (50 Hz: raw frames both ways, nav, truth, observer, pilot, autopilot, thrust, the
-//! pose topics; status and link stats at 1 Hz; an event every 10 s) is generated once into
-//! a temp dir.
+//! everything else the tools do). The one-hour file (50 Hz: raw frames both ways, nav,
+//! truth, observer, pilot, autopilot, thrust, the pose topics; status and link stats at
+//! 1 Hz; an event every 10 s) is generated once into a temp dir.
 
 #[path = "../tests/common/mod.rs"]
 mod common;
@@ -18,7 +17,7 @@ use std::hint::black_box;
 use std::time::Instant;
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use rov_session::{ResimOptions, SessionWriter, WriterOptions, export_csv_to, open, resimulate};
+use rov_session::{SessionWriter, WriterOptions, export_csv_to, open};
 
 /// Counts the bytes written to it.
 #[derive(Default)]
@@ -162,23 +161,6 @@ fn bench_hour(c: &mut Criterion) {
         b.iter(|| {
             let s = open(&path).expect("open");
             black_box(s.records::<rov_session::NavRecord>().expect("nav").len())
-        })
-    });
-    let m3 = rov_dynamics::load_default_model("model3").expect("model3");
-    let (cpu0, wall0) = (cpu_s(), Instant::now());
-    for _ in 0..3 {
-        let r = resimulate(&session, m3.as_ref(), &ResimOptions::default()).expect("resim");
-        black_box(r.fits.len());
-    }
-    eprintln!(
-        "re-simulate one hour through model3: mean wall {:.0} ms, mean CPU {:.0} ms",
-        wall0.elapsed().as_secs_f64() / 3.0 * 1e3,
-        (cpu_s() - cpu0) / 3.0 * 1e3
-    );
-    g.bench_function("resimulate_model3", |b| {
-        b.iter(|| {
-            let r = resimulate(&session, m3.as_ref(), &ResimOptions::default()).expect("resim");
-            black_box(r.fits.len())
         })
     });
     g.finish();

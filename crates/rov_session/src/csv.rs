@@ -657,7 +657,7 @@ impl RowSink for SeriesSink {
 
 /// The measurement rows of a session (see the module docs for the timing rule), their
 /// times (ns) and warnings: the export without the extra columns, and the input of the
-/// re-simulation and the lab. Reads only nav, thrust and truth, in one pass.
+/// model lab (`lab`, `sim run`, `replay --model`, the replay's model overlay). Reads only nav, thrust and truth, in one pass.
 pub fn measurements(session: &Session) -> Result<(MeasurementSeries, Vec<u64>, Vec<String>)> {
     let mut sink = SeriesSink::default();
     let done = build_rows(session, false, &mut sink)?;

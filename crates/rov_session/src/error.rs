@@ -82,12 +82,6 @@ pub enum SessionError {
     /// A measurement CSV could not be read.
     #[error(transparent)]
     Csv(#[from] rov_types::MeasurementError),
-    /// The model could not be loaded.
-    #[error("model: {0}")]
-    Model(#[from] rov_types::ConfigError),
-    /// The model failed during re-simulation.
-    #[error("re-simulation: {0}")]
-    Dynamics(#[from] rov_dynamics::DynamicsError),
 }
 
 /// Shorthand result.

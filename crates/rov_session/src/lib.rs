@@ -1,6 +1,7 @@
 //! Sessions of the topside station: MCAP recording that survives being killed, reading of
 //! complete, truncated and damaged files in bounded memory, recovery, measurement-CSV
-//! export and import, playback and re-simulation through a vehicle model.
+//! export and import and playback (a model is compared with a session by the model lab's
+//! engine, `rov_lab::engine`, not here).
 //!
 //! * [`record`]: the topics (fixed names), one typed record per JSON topic and its JSON
 //!   Schema. Raw Pro 4 frames go on `/pro4/tx` and `/pro4/rx` (encoding `vr-pro4`).
@@ -14,7 +15,6 @@
 //! * [`recover`](mod@recover): [`recover()`] writes `NAME.recovered.mcap`.
 //! * [`csv`]: [`export_csv_to`] (streaming) and [`import_csv`]; the export timing rule.
 //! * [`playback`]: [`Playback`] (play/pause, speed 0.1×–50×, seek, step).
-//! * [`resim`]: [`resimulate`], model-versus-measured traces and fits.
 //!
 //! # Pure parts and I/O
 //!
@@ -62,7 +62,6 @@ mod open;
 pub mod playback;
 pub mod record;
 pub mod recover;
-pub mod resim;
 pub mod session;
 pub mod stream;
 pub mod video;
@@ -82,7 +81,6 @@ pub use record::{
     TruthRecord, encode_json,
 };
 pub use recover::{RecoveryReport, recover, recovered_path};
-pub use resim::{ChannelFit, ResimOptions, Resimulation, resimulate, resimulate_series};
 pub use session::{Session, open};
 pub use stream::{Messages, ReadOptions, ReadReport};
 pub use video::{VideoFrames, VideoStats};

@@ -582,7 +582,7 @@ impl Runtime {
     /// # Errors
     /// [`RuntimeError::Session`] if the file does not open.
     pub fn replay(path: &Path) -> Result<StationHandle, RuntimeError> {
-        replay::start(path, ModelSet::load_default()?)
+        replay::start(path)
     }
 }
 

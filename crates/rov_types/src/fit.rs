@@ -83,21 +83,39 @@ pub fn rmse(measured: &[f64], predicted: &[f64], kind: ErrorKind) -> Option<f64>
 /// skipped.
 #[must_use]
 pub fn fit(pairs: &[(f64, f64)], kind: ErrorKind) -> Fit {
-    let finite = || pairs.iter().filter(|(y, p)| y.is_finite() && p.is_finite());
-    let n = finite().count();
+    fit_pooled([pairs], kind)
+}
+
+/// Fit % and RMSE pooled over several stretches (runs) of one channel: RMSE over all
+/// finite pairs, fit % = 100 · (1 − √(Σ‖y − ŷ‖²) / √(Σ‖y − ȳ_run‖²)), each stretch's
+/// deviation taken around its own mean ȳ_run (a run's offset is not variation the model
+/// has to explain). One stretch gives exactly [`fit`].
+#[must_use]
+pub fn fit_pooled<'a>(
+    stretches: impl IntoIterator<Item = &'a [(f64, f64)]>,
+    kind: ErrorKind,
+) -> Fit {
+    let (mut err2, mut dev2, mut n) = (0.0, 0.0, 0usize);
+    for pairs in stretches {
+        let finite = || pairs.iter().filter(|(y, p)| y.is_finite() && p.is_finite());
+        let m = finite().count();
+        if m == 0 {
+            continue;
+        }
+        let mean = finite().map(|(y, _)| y).sum::<f64>() / m as f64;
+        for (y, p) in finite() {
+            let e = kind.error(*y, *p);
+            err2 += e * e;
+            dev2 += (y - mean) * (y - mean);
+        }
+        n += m;
+    }
     if n == 0 {
         return Fit {
             samples: 0,
             rmse: None,
             fit_pct: None,
         };
-    }
-    let mean = finite().map(|(y, _)| y).sum::<f64>() / n as f64;
-    let (mut err2, mut dev2) = (0.0, 0.0);
-    for (y, p) in finite() {
-        let e = kind.error(*y, *p);
-        err2 += e * e;
-        dev2 += (y - mean) * (y - mean);
     }
     Fit {
         samples: n,
@@ -134,6 +152,22 @@ mod tests {
         let f = fit(&[(1.0, 1.5), (1.0, 0.5)], ErrorKind::Linear);
         assert_eq!((f.rmse, f.fit_pct), (Some(0.5), None));
         assert_eq!(fit(&[], ErrorKind::Linear).rmse, None);
+    }
+
+    #[test]
+    fn pooled_stretches_use_their_own_means() {
+        // Two stretches offset by 10: pooled, the offset is not variation.
+        let a = [(1.0, 1.5), (3.0, 2.5)];
+        let b = [(11.0, 11.5), (13.0, 12.5)];
+        let f = fit_pooled([&a[..], &b[..]], ErrorKind::Linear);
+        assert_eq!((f.samples, f.rmse), (4, Some(0.5)));
+        // Σe² = 1, Σ(y − ȳ_run)² = 4: fit 100 (1 − ½) = 50 %.
+        assert_eq!(f.fit_pct, Some(50.0));
+        assert_eq!(
+            fit_pooled([&a[..]], ErrorKind::Linear),
+            fit(&a, ErrorKind::Linear)
+        );
+        assert_eq!(fit_pooled([&[][..]], ErrorKind::Linear).rmse, None);
     }
 
     #[test]

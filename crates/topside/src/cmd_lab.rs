@@ -28,9 +28,10 @@ use rov_lab::lab::{
     AddReport, ChannelSummary, CompareReport, add_with_terms, compare, diagnose_json,
 };
 use rov_lab::model::{BaseKind, LabModel};
-use rov_lab::persist::{load_lab_model, save_extended_model};
+use rov_lab::persist::save_extended_model;
 use rov_lab::plots::{comparison_png, error_fall_png, failure_pngs, residual_png};
 use rov_lab::{Run, parse_effect_list};
+use rov_types::model_id::ModelId;
 
 /// How `diagnose` decides its verdict (shown by `topside lab --help`; the full statement
 /// is in `rov_lab::verdict`).
@@ -158,15 +159,19 @@ pub struct ListArgs {
 
 const THREADS: usize = 2;
 
-/// Loads a model argument: a base name or a saved TOML.
+/// Loads a model argument (`model1`, `model2`, `model3` or `FILE.toml`: a base-model
+/// file, a vehicle definition or a saved extended model): the one loader of `lab`,
+/// `sim run` and `replay --model`, through [`rov_lab::load_model`].
 pub fn load_model_arg(arg: &str) -> anyhow::Result<LabModel> {
-    if let Some(kind) = BaseKind::parse(arg) {
-        return Ok(LabModel::default_base(kind)?);
-    }
-    let text = fs::read_to_string(arg).with_context(|| {
-        format!("--model {arg}: neither model1/model2/model3 nor a readable TOML file")
-    })?;
-    Ok(load_lab_model(&text, arg)?)
+    let id: ModelId = arg.parse().with_context(|| format!("--model {arg}"))?;
+    let text = match &id {
+        ModelId::Base(_) => None,
+        ModelId::File(path) => Some(
+            fs::read_to_string(path)
+                .with_context(|| format!("--model {arg}: cannot read {}", path.display()))?,
+        ),
+    };
+    Ok(rov_lab::load_model(&id, text.as_deref())?)
 }
 
 /// Loads one log as a single continuous run (for commands that need one, such as

@@ -10,9 +10,15 @@
 //! * `--check` reads every message, decodes each by its topic (JSON records, raw frames,
 //!   the Foxglove messages) and checks every chunk: `decode_errors` per channel, damage
 //!   anywhere, messages out of order and gaps in the warnings.
-//! * `--model M` (model1, model2, model3 or a saved extended model's name) drives the
-//!   model with the recorded thrust commands and reports the fit per channel (`model`,
-//!   `fit`: `predicted`, `samples`, `fit_pct`, `rmse`); it reads nav, thrust and truth.
+//! * `--model M` (model1, model2, model3 or a `FILE.toml`: a saved extended model, a
+//!   vehicle definition) drives the model with the recorded thrust commands and reports
+//!   the fit per channel (`model`, `fit`: `channel`, `predicted`, `samples`, `fit_pct`,
+//!   `rmse`; `fit_notes`). It is the model lab's engine and data path: the session read
+//!   into runs like `lab compare --data FILE.mcap` (the real-log treatment; a gap splits
+//!   the session into runs), loaded by [`crate::cmd_lab::load_model_arg`], the free run
+//!   pooled over the runs by [`rov_lab::fit_runs`]: the same numbers as `lab compare`'s
+//!   `pooled.free_run`. `fit_pct` is null when the channel barely moves (the lab's
+//!   noise-floor gate); it reads nav, thrust and truth.
 //!
 //! Output: one JSON object on stdout, the same in words on stderr. A truncated file is
 //! summarised as far as it is intact, with a warning.
@@ -22,7 +28,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::Args;
-use rov_session::{MAX_SPEED, MIN_SPEED, ResimOptions, resimulate};
+use rov_session::{MAX_SPEED, MIN_SPEED};
 use serde_json::json;
 
 use crate::cmd_export::{open_with_warnings, warn_damage};
@@ -40,8 +46,8 @@ pub struct ReplayArgs {
     /// Playback speed, 0.1–50 (clamped); sets `replay_wall_s`.
     #[arg(long, default_value_t = 1.0)]
     pub speed: f64,
-    /// Fit this model to the session (model1, model2 or model3): the recorded thrust
-    /// commands drive it.
+    /// Fit this model to the session (model1, model2, model3 or FILE.toml): the recorded
+    /// thrust commands drive it (the model lab's engine, free run).
     #[arg(long)]
     pub model: Option<String>,
     /// Read and decode every message and check every chunk.
@@ -54,7 +60,7 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<ExitCode> {
         anyhow::bail!("the replay GUI is the station window's Replay tab; use --headless here");
     }
     let model = match &args.model {
-        Some(m) => Some(rov_dynamics::load_default_model(m)?),
+        Some(m) => Some(crate::cmd_lab::load_model_arg(m)?),
         None => None,
     };
     let session = open_with_warnings(&args.file)?;
@@ -108,17 +114,20 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<ExitCode> {
         })
         .collect();
 
-    let resim = model
-        .as_ref()
-        .map(|m| resimulate(&session, m.as_ref(), &ResimOptions::default()));
-    let (fit, fit_error) = match &resim {
-        Some(Ok(r)) => {
-            let fits: Vec<serde_json::Value> = r
-                .fits
+    // The model lab's engine on the lab's runs of this session (the same reading as
+    // `lab compare --data FILE.mcap`).
+    let resim = model.as_ref().map(|m| -> anyhow::Result<_> {
+        let runs = crate::cmd_lab::load_log(&args.file)?;
+        let fits = rov_lab::fit_runs(m, &runs)?;
+        Ok((fits, rov_lab::ingest::treatment_sentences(&runs)))
+    });
+    let (fit, fit_error, fit_notes) = match &resim {
+        Some(Ok((fits, notes))) => {
+            let fits: Vec<serde_json::Value> = fits
                 .iter()
                 .map(|f| {
                     json!({
-                        "channel": f.name,
+                        "channel": crate::cmd_sim_run::column(f.channel),
                         "predicted": f.predicted,
                         "samples": f.samples,
                         "fit_pct": f.fit_pct,
@@ -126,14 +135,13 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<ExitCode> {
                     })
                 })
                 .collect();
-            warnings.extend(r.warnings.iter().cloned());
-            (Some(fits), None)
+            (Some(fits), None, Some(notes.clone()))
         }
         Some(Err(e)) => {
-            eprintln!("warning: no model fit: {e}");
-            (None, Some(e.to_string()))
+            eprintln!("warning: no model fit: {e:#}");
+            (None, Some(format!("{e:#}")), None)
         }
-        None => (None, None),
+        None => (None, None, None),
     };
     if model.is_some() && session.is_indexed() && session.damage().is_some() && !args.check {
         warn_damage(&args.file, &session);
@@ -152,6 +160,7 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<ExitCode> {
         "model": args.model,
         "fit": fit,
         "fit_error": fit_error,
+        "fit_notes": fit_notes,
         "warnings": warnings,
     });
     println!("{out}");
@@ -181,25 +190,28 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<ExitCode> {
             }
         );
     }
-    if let (Some(Ok(r)), Some(name)) = (&resim, &args.model) {
-        eprintln!("fit of {name} (fit % = 100 (1 - |y - yhat| / |y - mean y|)):");
-        for f in &r.fits {
+    if let (Some(Ok((fits, notes))), Some(name)) = (&resim, &args.model) {
+        eprintln!(
+            "free-run fit of {name} (fit % = 100 (1 - |y - yhat| / |y - mean y|), the model lab's engine):"
+        );
+        for f in fits {
+            let col = crate::cmd_sim_run::column(f.channel);
             match (f.predicted, f.fit_pct, f.rmse) {
-                (false, _, _) => eprintln!("  {:<14} not predicted by {name}", f.name),
+                (false, _, _) => eprintln!("  {col:<14} not predicted by {name}"),
                 (true, Some(fit), Some(rmse)) => {
                     eprintln!(
-                        "  {:<14} fit {fit:7.2} %  RMSE {rmse:.4} ({} samples)",
-                        f.name, f.samples
+                        "  {col:<14} fit {fit:7.2} %  RMSE {rmse:.4} ({} samples)",
+                        f.samples
                     )
                 }
                 (true, None, Some(rmse)) => {
-                    eprintln!(
-                        "  {:<14} fit undefined (constant measurement)  RMSE {rmse:.4}",
-                        f.name
-                    )
+                    eprintln!("  {col:<14} fit n/a (the measurement barely moves)  RMSE {rmse:.4}")
                 }
-                (true, _, None) => eprintln!("  {:<14} no finite samples to compare", f.name),
+                (true, _, None) => eprintln!("  {col:<14} no finite samples to compare"),
             }
+        }
+        for n in notes {
+            eprintln!("  note: {n}");
         }
     }
     Ok(ExitCode::SUCCESS)

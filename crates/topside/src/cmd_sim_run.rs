@@ -40,7 +40,7 @@ pub struct RunArgs {
 }
 
 /// Column name and unit suffix of a channel in the output.
-fn column(ch: Channel) -> String {
+pub(crate) fn column(ch: Channel) -> String {
     let unit = match ch {
         Channel::Depth | Channel::North | Channel::East => "m",
         Channel::Heading | Channel::Pitch | Channel::Roll => "deg",

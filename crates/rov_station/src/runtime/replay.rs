@@ -13,8 +13,13 @@
 //!   when it gets there), before opening returns for [`VirtualReplay`] (deterministic).
 //! * A seek rebuilds the state from the last message of each topic before the new position
 //!   (read backwards from it), and replaces the plot history with the samples up to it.
-//! * The model prediction is recomputed from the recorded thrust with the model the
-//!   session recorded (or model3).
+//! * The model prediction (the plots' overlay) is the model lab's engine along the
+//!   session ([`rov_lab::engine::predict_series`]: the session read into runs like `lab
+//!   compare` reads it, the model re-anchored to the measurement every [`HORIZON_S`]),
+//!   with the feed-forward model of the session's first autopilot record (a base model,
+//!   or a model file that is still readable; else model3), computed by the indexing pass
+//!   before it reads the rest. Sessions longer than [`OVERLAY_MAX_S`] get no overlay
+//!   (the lab holds a run in memory).
 //! * The indexing pass also collects every event of the session (arm, disarm, holds,
 //!   alarms, notes, markers): the Replay tab's clickable index. Step and step back move
 //!   one control tick of the recording (its thrust commands' mean interval, from the
@@ -27,11 +32,12 @@ use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
-use rov_control::{ModelChoice, ModelSet};
+use rov_lab::engine::SeriesPrediction;
 use rov_session::{Decoded, Message, Playback, ReadOptions, Session, Topic};
+use rov_types::model_id::{BaseModel, ModelId};
 
 use crate::runtime::history::{History, HistorySample};
-use crate::runtime::predict::{Anchor, Predictor};
+pub use crate::runtime::predict::HORIZON_S;
 use crate::runtime::view::{IndexedEvent, Pipeline, ReplayView, Source};
 use crate::runtime::{
     ReplayCommand, RuntimeCommand, RuntimeError, Shared, StationHandle, command_channel, lock,
@@ -57,24 +63,114 @@ const PIPELINE_TOPICS: [Topic; 8] = [
     Topic::Events,
 ];
 
+/// Longest session that gets a model overlay, s.
+pub const OVERLAY_MAX_S: f64 = 3600.0;
+
+/// The replay's model overlay: the engine's prediction along the session.
+#[derive(Debug, Clone, Default)]
+pub struct Overlay {
+    /// The model's name (as the session named it, or `model3`).
+    pub model: String,
+    /// The prediction, on the measurement series' time base.
+    pub prediction: SeriesPrediction,
+    /// Session time (from the start) minus the series' time, s.
+    pub offset_s: f64,
+}
+
+impl Overlay {
+    /// The predicted (depth m, heading deg) at session time `t_s` (the measurement row
+    /// at or before it, at most 0.5 s old).
+    #[must_use]
+    pub fn at(&self, t_s: f64) -> Option<(f64, f64)> {
+        self.prediction.at(t_s - self.offset_s, 0.5)
+    }
+}
+
+/// The model of the overlay: the feed-forward model of the first autopilot record that
+/// names one, loaded by the one loader ([`rov_lab::load_model`]); model3 otherwise, with
+/// a note saying why when the named model does not load.
+fn overlay_model(session: &Session) -> Result<(String, rov_lab::LabModel, Option<String>), String> {
+    let named = session
+        .read(ReadOptions::topics(&[Topic::Autopilot.name()]))
+        .filter_map(|m| match m.decode_any() {
+            Ok(Decoded::Autopilot(r)) if !r.feedforward_model.is_empty() => {
+                Some(r.feedforward_model)
+            }
+            _ => None,
+        })
+        .next();
+    let mut note = None;
+    if let Some(name) = named {
+        let loaded = name
+            .parse::<ModelId>()
+            .map_err(|e| e.to_string())
+            .and_then(|id| {
+                let text = match &id {
+                    ModelId::Base(_) => None,
+                    ModelId::File(p) => Some(
+                        std::fs::read_to_string(p)
+                            .map_err(|e| format!("cannot read {}: {e}", p.display()))?,
+                    ),
+                };
+                rov_lab::load_model(&id, text.as_deref()).map_err(|e| e.to_string())
+            });
+        match loaded {
+            Ok(m) => return Ok((name, m, None)),
+            Err(e) => {
+                note = Some(format!(
+                    "the session's model {name} does not load ({e}); the overlay shows model3"
+                ));
+            }
+        }
+    }
+    let m3 = rov_lab::load_model(&ModelId::Base(BaseModel::Model3), None)
+        .map_err(|e| format!("no model overlay: {e}"))?;
+    Ok(("model3".to_string(), m3, note))
+}
+
+/// The replay's model overlay of a session (see the module docs) and a note when the
+/// session's own model was replaced by model3, or why there is no overlay.
+pub fn model_overlay(session: &Session) -> Result<(Overlay, Option<String>), String> {
+    if session.duration_s() > OVERLAY_MAX_S {
+        return Err(format!(
+            "no model overlay: the session is longer than {:.0} h",
+            OVERLAY_MAX_S / 3600.0
+        ));
+    }
+    let (name, model, note) = overlay_model(session)?;
+    let (series, times_ns, _) =
+        rov_session::measurements(session).map_err(|e| format!("no model overlay: {e}"))?;
+    let start_ns = session.start_ns().unwrap_or(0);
+    let offset_s = match (series.rows.first(), times_ns.first()) {
+        (Some(r), Some(ns)) => ns.saturating_sub(start_ns) as f64 * 1e-9 - r.time_s,
+        _ => 0.0,
+    };
+    let prediction = rov_lab::engine::predict_series(&model, &series, &name, HORIZON_S)
+        .map_err(|e| format!("no model overlay: {e}"))?;
+    Ok((
+        Overlay {
+            model: name,
+            prediction,
+            offset_s,
+        },
+        note,
+    ))
+}
+
 /// The pipeline fed with recorded messages, and the model prediction.
 #[derive(Debug)]
 struct Feed {
     pipeline: Pipeline,
-    predictor: Predictor,
-    models: ModelSet,
+    overlay: Option<Arc<Overlay>>,
     start_ns: u64,
-    last_nav_s: Option<f64>,
 }
 
 impl Feed {
-    fn new(source: Source, models: ModelSet, start_ns: u64) -> Self {
+    fn new(source: Source, start_ns: u64) -> Self {
         Self {
             pipeline: Pipeline::new(source),
-            predictor: Predictor::default(),
-            models,
+            overlay: None,
             start_ns,
-            last_nav_s: None,
         }
     }
 
@@ -92,29 +188,7 @@ impl Feed {
         match d {
             Decoded::Nav(r) => {
                 p.nav(t_s, &r);
-                let dt = self.last_nav_s.map_or(0.0, |t| t_s - t);
-                self.last_nav_s = Some(t_s);
-                let (w, rr) = p.observer_rates();
-                let s = &p.view.snapshot;
-                let anchor = Anchor {
-                    depth_m: s.depth_estimate_m.or(s.depth_m),
-                    w_mps: w,
-                    heading_deg: s.heading_estimate_deg.or(s.heading_deg),
-                    r_rad_s: rr,
-                };
-                let th = s.thrust;
-                let choice = if p.view.feedforward {
-                    p.view.model
-                } else {
-                    ModelChoice::Model3
-                };
-                p.view.prediction = self.predictor.step(
-                    self.models.get(choice),
-                    t_s,
-                    dt,
-                    &anchor,
-                    [th.port_pct, th.starboard_pct, th.vertical_pct],
-                );
+                p.view.prediction = self.overlay.as_ref().and_then(|o| o.at(t_s));
                 p.set_time(t_s);
                 return Some(p.sample(t_s));
             }
@@ -143,6 +217,10 @@ struct IndexState {
     /// Session time indexed so far, s.
     progress_s: f64,
     done: bool,
+    /// The model overlay, once computed (first thing the pass does).
+    overlay: Option<Arc<Overlay>>,
+    /// Why there is no overlay, or what replaced the session's model.
+    overlay_note: Option<String>,
 }
 
 /// The control tick of a recording: the mean interval of its thrust commands (one per
@@ -159,14 +237,18 @@ fn tick_of(session: &Session) -> f64 {
 }
 
 /// The indexing pass; see the module docs.
-fn index_session(
-    session: &Session,
-    models: ModelSet,
-    state: &Mutex<IndexState>,
-    cancel: &AtomicBool,
-) {
+fn index_session(session: &Session, state: &Mutex<IndexState>, cancel: &AtomicBool) {
     let start_ns = session.start_ns().unwrap_or(0);
-    let mut feed = Feed::new(Source::None, models, start_ns);
+    let mut feed = Feed::new(Source::None, start_ns);
+    let (overlay, note) = match model_overlay(session) {
+        Ok((o, note)) => (Some(Arc::new(o)), note),
+        Err(e) => (None, Some(e)),
+    };
+    feed.overlay.clone_from(&overlay);
+    if let Ok(mut g) = state.lock() {
+        g.overlay = overlay;
+        g.overlay_note = note;
+    }
     let names: Vec<&str> = PIPELINE_TOPICS.iter().map(|t| t.name()).collect();
     let mut batch: Vec<HistorySample> = Vec::new();
     let mut events: Vec<IndexedEvent> = Vec::new();
@@ -251,7 +333,7 @@ impl Drop for ReplayEngine {
 
 impl ReplayEngine {
     /// Opens a session; `background`: index on a thread of its own (else before returning).
-    pub fn open(path: &Path, models: ModelSet, background: bool) -> Result<Self, RuntimeError> {
+    pub fn open(path: &Path, background: bool) -> Result<Self, RuntimeError> {
         let session = rov_session::open(path)?;
         let start_ns = session.start_ns().unwrap_or(0);
         let mut warnings = session.warnings().to_vec();
@@ -267,17 +349,12 @@ impl ReplayEngine {
         let index = Arc::new(Mutex::new(IndexState::default()));
         let cancel = Arc::new(AtomicBool::new(false));
         let indexer = if background {
-            let (s, st, c, m) = (
-                session.clone(),
-                Arc::clone(&index),
-                Arc::clone(&cancel),
-                models.clone(),
-            );
+            let (s, st, c) = (session.clone(), Arc::clone(&index), Arc::clone(&cancel));
             Some(spawn_named("station-replay-index", move || {
-                index_session(&s, m, &st, &c);
+                index_session(&s, &st, &c);
             })?)
         } else {
-            index_session(&session, models.clone(), &index, &cancel);
+            index_session(&session, &index, &cancel);
             None
         };
         let video = Arc::new(crate::runtime::video::StationVideo::replay(session.clone()));
@@ -285,7 +362,7 @@ impl ReplayEngine {
             video,
             start_ns,
             player: Playback::new(session),
-            feed: Feed::new(Source::Replay(path.to_path_buf()), models, start_ns),
+            feed: Feed::new(Source::Replay(path.to_path_buf()), start_ns),
             index,
             cancel,
             indexer,
@@ -306,8 +383,7 @@ impl ReplayEngine {
         let events = std::mem::take(&mut self.feed.pipeline.view.events);
         self.feed.pipeline = Pipeline::new(source);
         self.feed.pipeline.view.events = events;
-        self.feed.predictor.reset();
-        self.feed.last_nav_s = None;
+        self.take_overlay();
         let latest = self.player.latest_before();
         for m in &latest {
             let _ = self.feed.apply(m);
@@ -375,7 +451,17 @@ impl ReplayEngine {
         }
     }
 
+    /// The overlay from the indexing pass, once it has computed it.
+    fn take_overlay(&mut self) {
+        if self.feed.overlay.is_none()
+            && let Some(g) = try_lock(&self.index)
+        {
+            self.feed.overlay.clone_from(&g.overlay);
+        }
+    }
+
     pub fn advance(&mut self, dt_wall_s: f64) {
+        self.take_overlay();
         for m in self.player.advance(dt_wall_s) {
             if let Some(s) = self.feed.apply(&m) {
                 self.pending.push(s);
@@ -414,7 +500,12 @@ impl ReplayEngine {
         let index = self
             .index
             .lock()
-            .map(|g| g.events.clone())
+            .map(|g| {
+                if let Some(n) = &g.overlay_note {
+                    warnings.push(n.clone());
+                }
+                g.events.clone()
+            })
             .unwrap_or_default();
         let (position_s, duration_s, playing, speed, messages) = (
             self.player.position_s(),
@@ -451,8 +542,8 @@ impl ReplayEngine {
     }
 }
 
-pub(crate) fn start(path: &Path, models: ModelSet) -> Result<StationHandle, RuntimeError> {
-    let mut engine = ReplayEngine::open(path, models, true)?;
+pub(crate) fn start(path: &Path) -> Result<StationHandle, RuntimeError> {
+    let mut engine = ReplayEngine::open(path, true)?;
     let shared = Arc::new(Shared::new(20_000, MonoClock::new()));
     let (tx, rx) = command_channel();
     engine.publish(&shared);
@@ -505,7 +596,7 @@ impl VirtualReplay {
     /// # Errors
     /// [`RuntimeError::Session`] if the file does not open.
     pub fn open(path: &Path) -> Result<(Self, StationHandle), RuntimeError> {
-        let engine = ReplayEngine::open(path, ModelSet::load_default()?, false)?;
+        let engine = ReplayEngine::open(path, false)?;
         let video = Arc::clone(&engine.video);
         let shared = Arc::new(Shared::new(20_000, MonoClock::new()));
         let (tx, rx) = command_channel();
