@@ -135,6 +135,12 @@ pub struct RuntimeConfig {
     pub reconnect: ReconnectSettings,
     /// The camera (`[video]`, `--video`); none by default.
     pub video: video::VideoSettings,
+    /// The simulated vehicle's dynamics (`--vehicle FILE.toml`: any model, effects
+    /// included, behind the same wire protocol and sensors); `None`: model3 as shipped.
+    pub sim_vehicle: Option<crate::hold::VehicleDynamics>,
+    /// The autopilot's model when it is not one of the shipped set (`--model FILE.toml`,
+    /// `[autopilot] model`): set before the first tick; `None`: `control.feedforward_model`.
+    pub autopilot_model: Option<crate::hold::AutopilotModel>,
 }
 
 impl Default for RuntimeConfig {
@@ -156,6 +162,8 @@ impl Default for RuntimeConfig {
             record_blocking: false,
             reconnect: ReconnectSettings::default(),
             video: video::VideoSettings::none(),
+            sim_vehicle: None,
+            autopilot_model: None,
         }
     }
 }

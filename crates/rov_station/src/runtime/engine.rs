@@ -186,7 +186,10 @@ impl Engine {
         shared: Arc<Shared>,
         source: Source,
     ) -> Result<Self, RuntimeError> {
-        let core = StationCore::new(cfg.control, models.clone())?;
+        let mut core = StationCore::new(cfg.control, models.clone())?;
+        if let Some(a) = &cfg.autopilot_model {
+            core.set_plant(&a.label, a.plant.clone())?;
+        }
         let source_label = match &source {
             Source::Serial(p) => format!("serial:{p}"),
             _ => "sim".to_string(),
@@ -1061,7 +1064,7 @@ impl Engine {
             // allocation per tick).
             feedforward_model: {
                 let name = if ctl.feedforward_enabled() {
-                    ctl.model().name()
+                    ctl.model_label()
                 } else {
                     ""
                 };
@@ -1201,7 +1204,17 @@ impl Engine {
             heading_deg: snap.heading_estimate_deg.or(snap.heading_deg),
             r_rad_s: r,
         };
-        let model = self.models.get(model_choice);
+        // The autopilot's own model predicts (a custom plant when one is set).
+        let model = match self.core.controller().custom_plant() {
+            Some(p) => p,
+            None => self.models.get(model_choice),
+        };
+        if self.pipeline.view.model_label != self.core.controller().model_label() {
+            self.core
+                .controller()
+                .model_label()
+                .clone_into(&mut self.pipeline.view.model_label);
+        }
         self.pipeline.view.prediction = self.predictor.step(
             model,
             t_s,
