@@ -136,6 +136,14 @@ impl StationCore {
         self.controller.set_plant(label, plant)
     }
 
+    /// A controller command that needs no link (model selection, feedforward switch).
+    pub fn controller_command(
+        &mut self,
+        cmd: rov_control::ModeCommand,
+    ) -> Result<(), ControlError> {
+        self.controller.command(cmd)
+    }
+
     /// The latest telemetry.
     pub fn last_telemetry(&self) -> Option<&Telemetry> {
         self.last_telemetry.as_ref()

@@ -283,6 +283,17 @@ pub enum RuntimeCommand {
     /// A virtual gamepad's raw state (tests and other input devices): mapped exactly
     /// like a real pad's, and stale after [`RuntimeConfig::keyboard_timeout_us`].
     PadInput(pad::PadState),
+    /// Use this model for the autopilot (feedforward, observer, feedback inversion);
+    /// `None`: back to `control.feedforward_model` of the shipped set. Refused while the
+    /// vehicle is armed unless `confirmed` (the GUI's hold-to-confirm); a plant that does
+    /// not validate is refused too, and the autopilot keeps its previous model (the
+    /// refusal is an event and `StationView::last_refusal`).
+    AutopilotModel {
+        /// The model (None: the configured shipped one).
+        model: Option<Box<crate::hold::AutopilotModel>>,
+        /// The pilot confirmed the change while armed.
+        confirmed: bool,
+    },
     /// Fault injection for tests: block the control thread for this long.
     InjectStall(Duration),
     /// Stop the runtime.

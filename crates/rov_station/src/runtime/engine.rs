@@ -318,6 +318,39 @@ impl Engine {
         self.record(|t| RecordItem::Event(t, r), now_us);
     }
 
+    /// [`RuntimeCommand::AutopilotModel`].
+    fn autopilot_model(
+        &mut self,
+        link: &Link,
+        model: Option<Box<crate::hold::AutopilotModel>>,
+        confirmed: bool,
+        now_us: u64,
+    ) {
+        if link.failsafe().is_armed() && !confirmed {
+            self.refuse(
+                now_us,
+                "changing the autopilot model",
+                "the vehicle is armed (disarm first, or confirm)".into(),
+            );
+            return;
+        }
+        let result = match &model {
+            Some(m) => self.core.set_plant(&m.label, m.plant.clone()),
+            None => {
+                let choice = self.cfg.control.feedforward_model;
+                self.core
+                    .controller_command(rov_control::ModeCommand::SelectModel(choice))
+            }
+        };
+        match result {
+            Ok(()) => {
+                let text = format!("autopilot model: {}", self.core.controller().model_label());
+                self.event(now_us, "autopilot", Severity::Info, text);
+            }
+            Err(e) => self.refuse(now_us, "the autopilot model", e.to_string()),
+        }
+    }
+
     fn refuse(&mut self, now_us: u64, what: &str, why: String) {
         // "cannot arm: ..." says it already.
         let text = if why.starts_with("cannot") {
@@ -487,6 +520,9 @@ impl Engine {
                 self.cfg.pad_map = m;
             }
             RuntimeCommand::PadInput(st) => self.virtual_pad = Some((st, now_us)),
+            RuntimeCommand::AutopilotModel { model, confirmed } => {
+                self.autopilot_model(link, model, confirmed, now_us);
+            }
             RuntimeCommand::InjectStall(d) => return Followup::Stall(d),
             RuntimeCommand::Shutdown => return Followup::Shutdown,
         }
