@@ -21,6 +21,15 @@
 //! force to the force that the feedforward command produces and inverts the sum:
 //! `u = map⁻¹(map(u_ff) + F_fb)`, which is exact superposition in force. With
 //! `plant_model = feedforward model` this is the plain model-based design.
+//!
+//! **Any model.** [`Controller::set_plant`] replaces both with one custom plant (any
+//! model's [`PlantModel`], e.g. a lab-extended model's, under a label): feedforward,
+//! observer, feedback inversion and force limits then all use it, so a learned model
+//! improves the estimate as well as the feedforward. Its thrust path is honoured: the
+//! observer's input is the force of the *lagged* command (the lag's state is tracked
+//! per thruster), the hold's whole demand gets a bounded lead `τ·du/dt`
+//! ([`crate::feedforward::LAG_LEAD_MAX_PCT`]), the dead band is added to non-zero demands
+//! and the vertical thruster's reaction torque is a known yaw load.
 
 use crate::allocation::{Allocation, ThrustDemand, allocate};
 use crate::angle::{wrap_2pi, wrap_pi};
@@ -157,6 +166,9 @@ pub struct AxisDiagnostics {
     /// Model feedforward command in % (vertical, or differential for heading), from the
     /// selected model's inverted thrust map.
     pub feedforward_pct: f64,
+    /// The feedforward demand was beyond the thrusters' reach: its command is the ±100 %
+    /// limit.
+    pub feedforward_saturated: bool,
     /// Static-load and bias compensation: −(known load of the control plant model +
     /// bias estimate), N or N·m.
     pub bias_compensation: f64,
@@ -262,6 +274,8 @@ struct AxisCtl {
     /// VehicleAuto target (m or rad), None = off.
     vehicle_target: Option<f64>,
     last_diag: AxisDiagnostics,
+    /// Last hold demand before its lead (for the lag compensation's du/dt), %.
+    demand_prev_pct: Option<f64>,
 }
 
 impl AxisCtl {
@@ -282,6 +296,7 @@ impl AxisCtl {
             sample_age_s: f64::INFINITY,
             vehicle_target: None,
             last_diag: AxisDiagnostics::default(),
+            demand_prev_pct: None,
         }
     }
 
@@ -356,6 +371,9 @@ struct AxisInputs<'a> {
     feedforward: &'a dyn Fn(f64, f64) -> (f64, f64),
     /// Force → % through the control plant model's inverted thrust map.
     to_pct: &'a dyn Fn(f64) -> f64,
+    /// Lag time constant of the axis' thrusters (s): the hold's demand gets the lead
+    /// `τ·du/dt` (0: none).
+    lead_tau_s: f64,
 }
 
 /// The depth and heading autopilot.
@@ -371,6 +389,11 @@ pub struct Controller {
     guard: OutputGuard,
     last_t_s: Option<f64>,
     surface_tare_mbar: Option<f64>,
+    /// A custom plant (any model's) used for everything instead of the model set.
+    custom: Option<PlantModel>,
+    /// The lag's state per thruster (port, starboard, vertical), %: the command the
+    /// thrusters act on according to the plant in use.
+    lagged_pct: [f64; 3],
 }
 
 impl Controller {
@@ -393,7 +416,44 @@ impl Controller {
             surface_tare_mbar,
             cfg,
             models,
+            custom: None,
+            lagged_pct: [0.0; 3],
         })
+    }
+
+    /// Uses `plant` (any model's, e.g. from [`PlantModel::from_vehicle_model`]) under
+    /// `label` for the feedforward, the observer, the feedback inversion and the force
+    /// limits. The plant is validated first; on an error the controller keeps the model
+    /// it had. Holding axes re-engage bumplessly. [`ModeCommand::SelectModel`] returns to
+    /// the model set.
+    pub fn set_plant(&mut self, label: &str, mut plant: PlantModel) -> Result<(), ControlError> {
+        plant.name = label.to_string();
+        plant.validate()?;
+        self.custom = Some(plant);
+        self.reengage_holding_axes();
+        Ok(())
+    }
+
+    /// The custom plant in use, if any.
+    pub fn custom_plant(&self) -> Option<&PlantModel> {
+        self.custom.as_ref()
+    }
+
+    /// The label of the model the autopilot uses: the custom plant's label, else the
+    /// selected feedforward model's name.
+    pub fn model_label(&self) -> &str {
+        match &self.custom {
+            Some(p) => &p.name,
+            None => self.model.name(),
+        }
+    }
+
+    /// The plant of the observer, feedback inversion and limits.
+    fn control_plant(&self) -> &PlantModel {
+        match &self.custom {
+            Some(p) => p,
+            None => self.models.get(self.cfg.plant_model),
+        }
     }
 
     /// The configuration.
@@ -520,11 +580,22 @@ impl Controller {
     /// The force or moment (N, N·m) that the last command produces according to the
     /// control plant model.
     fn current_force(&self, axis: Axis) -> f64 {
-        let m = self.models.get(self.cfg.plant_model);
-        let c = self.guard.last();
+        let m = self.control_plant();
+        let [port, starboard, vertical] = self.acting_pct();
         match axis {
-            Axis::Depth => m.vertical_force_for_pct(c.vertical_pct()),
-            Axis::Heading => m.yaw_moment_for_pct(c.port_pct(), c.starboard_pct()),
+            Axis::Depth => m.vertical_force_for_pct(vertical),
+            Axis::Heading => m.yaw_moment_for_pct(port, starboard),
+        }
+    }
+
+    /// The commands (port, starboard, vertical, %) the thrusters act on: the last
+    /// command, or the lag's state when the plant in use has a lag.
+    fn acting_pct(&self) -> [f64; 3] {
+        let c = self.guard.last();
+        if self.control_plant().has_lag() {
+            self.lagged_pct
+        } else {
+            [c.port_pct(), c.starboard_pct(), c.vertical_pct()]
         }
     }
 
@@ -584,8 +655,9 @@ impl Controller {
                 })
             }
             ModeCommand::SelectModel(choice) => {
-                if choice != self.model {
+                if choice != self.model || self.custom.is_some() {
                     self.model = choice;
+                    self.custom = None;
                     self.reengage_holding_axes();
                 }
                 Ok(())
@@ -728,13 +800,31 @@ impl Controller {
         let depth_invalid = meas.depth_m.is_some() && depth_z.is_none();
         let heading_invalid = meas.heading_deg.is_some() && heading_z.is_none();
 
-        // --- observer: predict with the force the last command produces, then update
+        // --- the lag's state over this dt (the last command was held), then the observer:
+        // predict with the force the (lagged) last command produces, then update
+        {
+            let c = self.guard.last();
+            let last = [c.port_pct(), c.starboard_pct(), c.vertical_pct()];
+            let p = self.control_plant();
+            let paths = [p.port_path, p.starboard_path, p.vertical_path];
+            for ((a, u), path) in self.lagged_pct.iter_mut().zip(last).zip(paths) {
+                *a = path.lag_step(*a, u, dt);
+            }
+        }
         let current_heave = self.current_force(Axis::Depth);
         let current_yaw = self.current_force(Axis::Heading);
-        let plant = self.models.get(self.cfg.plant_model);
-        let ffm = self.models.get(self.model);
+        let plant = match &self.custom {
+            Some(p) => p,
+            None => self.models.get(self.cfg.plant_model),
+        };
+        let ffm = match &self.custom {
+            Some(p) => p,
+            None => self.models.get(self.model),
+        };
+        // The vertical thruster's reaction torque is a known yaw load.
+        let yaw_coupling = plant.yaw_per_heave_m * current_heave;
         let heave_in = current_heave + plant.heave.static_load;
-        let yaw_in = current_yaw + plant.yaw.static_load;
+        let yaw_in = current_yaw + plant.yaw.static_load + yaw_coupling;
         self.observer.depth.predict(dt, heave_in, &plant.heave);
         self.observer.heading.predict(dt, yaw_in, &plant.yaw);
         let depth_outcome = self.observer.depth.update_position(depth_z);
@@ -781,16 +871,16 @@ impl Controller {
             (0.0, 0.0)
         };
         let as_modelled = self.cfg.feedforward_force == FeedforwardForce::AsModelled;
+        let by = if as_modelled { ffm } else { plant };
         let heave_ff = |v: f64, a: f64| {
             let pct = ffm.vertical_pct_for_force(ffm.heave_force_n(v, a) + heave_ff_load);
-            let by = if as_modelled { ffm } else { plant };
             (by.vertical_force_for_pct(pct), pct)
         };
         let yaw_ff = |r: f64, rdot: f64| {
             let pct = ffm.differential_pct_for_moment(ffm.yaw_moment_nm(r, rdot) + yaw_ff_load);
-            let by = if as_modelled { ffm } else { plant };
             (by.yaw_moment_for_pct(pct, -pct), pct)
         };
+        let (lead_v_s, lead_h_s) = plant.lag_taus_s();
         let depth_in = AxisInputs {
             cfg: &self.cfg.depth,
             dt,
@@ -810,6 +900,7 @@ impl Controller {
             force_range: (f_lo, f_hi),
             feedforward: &heave_ff,
             to_pct: &|f| plant.vertical_pct_for_force(f),
+            lead_tau_s: lead_v_s,
         };
         let heading_in = AxisInputs {
             cfg: &self.cfg.heading,
@@ -822,7 +913,7 @@ impl Controller {
                     self.observer
                         .heading
                         .estimate()
-                        .map(|e| e.bias + plant.yaw.static_load)
+                        .map(|e| e.bias + plant.yaw.static_load + yaw_coupling)
                 })
                 .flatten(),
             ff_enabled: self.ff_enabled,
@@ -830,6 +921,7 @@ impl Controller {
             force_range: (-n_max, n_max),
             feedforward: &yaw_ff,
             to_pct: &|n| plant.differential_pct_for_moment(n),
+            lead_tau_s: lead_h_s,
         };
         let mut d_diag = step_axis(&mut self.depth, &depth_in, &mut faults.depth_sensor_lost);
         let mut h_diag = step_axis(
@@ -885,6 +977,30 @@ impl Controller {
     }
 }
 
+/// Lag compensation of a hold's demand `u` (%): `u + τ·du/dt`, the lead bounded by
+/// [`crate::feedforward::LAG_LEAD_MAX_PCT`] and the result by ±100 %. The lag sits
+/// between the command and the thrust map, so leading the whole demand (feedforward and
+/// feedback) inverts it: the thrusters then act on about the demand itself, and the
+/// feedback loop keeps the phase margin it was designed with.
+fn lag_lead(ax: &mut AxisCtl, u: f64, inp: &AxisInputs<'_>) -> f64 {
+    if !(inp.lead_tau_s > 0.0 && u.is_finite()) {
+        ax.demand_prev_pct = None;
+        return u;
+    }
+    let rate = match ax.demand_prev_pct {
+        Some(prev) if inp.dt > 0.0 => (u - prev) / inp.dt,
+        _ => 0.0,
+    };
+    ax.demand_prev_pct = Some(u);
+    let max = crate::feedforward::LAG_LEAD_MAX_PCT;
+    let lead = (inp.lead_tau_s * rate).clamp(-max, max);
+    if lead.is_finite() {
+        (u + lead).clamp(-100.0, 100.0)
+    } else {
+        u
+    }
+}
+
 /// One axis' mode logic and control law; returns its diagnostics (estimate and sample
 /// fields are filled in by the caller).
 fn step_axis(ax: &mut AxisCtl, inp: &AxisInputs<'_>, sensor_lost: &mut bool) -> AxisDiagnostics {
@@ -931,6 +1047,7 @@ fn step_axis(ax: &mut AxisCtl, inp: &AxisInputs<'_>, sensor_lost: &mut bool) -> 
                 } else {
                     (0.0, 0.0)
                 };
+
                 let bias_comp = inp.bias.map_or(0.0, |b| -b);
                 let error = ax.diff(r.pos, pos);
                 let terms = ax.pid.update(
@@ -945,9 +1062,11 @@ fn step_axis(ax: &mut AxisCtl, inp: &AxisInputs<'_>, sensor_lost: &mut bool) -> 
                 diag.pid = terms;
                 diag.feedforward = ff;
                 diag.feedforward_pct = ff_pct;
+                diag.feedforward_saturated = ff_pct.abs() >= 100.0 - 1e-9;
                 diag.bias_compensation = bias_comp;
                 diag.setpoint = Some(ax.setpoint);
-                (inp.to_pct)(terms.output)
+                let u = (inp.to_pct)(terms.output);
+                lag_lead(ax, u, inp)
             }
         }
         (AxisMode::VehicleAuto, Some((pos, _))) => {
@@ -973,6 +1092,7 @@ fn step_axis(ax: &mut AxisCtl, inp: &AxisInputs<'_>, sensor_lost: &mut bool) -> 
     };
     if ax.state.mode != AxisMode::Hold || ax.state.overridden {
         diag.reference = ax.reference.state();
+        ax.demand_prev_pct = None;
     }
     diag.state = ax.state;
     diag.demand_pct = demand_pct;
@@ -1126,5 +1246,107 @@ mod tests {
         assert!(lost);
         assert_eq!(c.axis_state(Axis::Depth).mode, AxisMode::Manual);
         assert_eq!(c.last_command().vertical_pct(), 0.0);
+    }
+
+    /// Engages a depth hold at 3 m with `plant` (None: the model set) and returns the
+    /// vertical demand (%) of the tick after (the static-load compensation, before the
+    /// observer's bias has moved).
+    fn hover_demand(plant: Option<PlantModel>) -> f64 {
+        let mut c = ctl();
+        if let Some(p) = plant {
+            c.set_plant("custom", p).unwrap();
+        }
+        let mut t = 0.0;
+        let still = PilotInput::default();
+        c.tick(t, &meas(3.0, 90.0), &still);
+        c.command(ModeCommand::Engage(Axis::Depth)).unwrap();
+        let mut out = 0.0;
+        for _ in 0..2 {
+            t += 0.02;
+            out = c
+                .tick(t, &meas(3.0, 90.0), &still)
+                .diagnostics
+                .depth
+                .demand_pct;
+        }
+        out
+    }
+
+    #[test]
+    fn a_custom_plant_drives_everything_and_a_bad_one_leaves_the_model() {
+        let mut c = ctl();
+        let mut bad = PlantModel::load_default(ModelChoice::Model3).unwrap();
+        bad.heave.inertia = f64::NAN;
+        let e = c.set_plant("bad.toml", bad).unwrap_err().to_string();
+        assert!(e.contains("heave.inertia"), "{e}");
+        assert_eq!(c.model_label(), "model3");
+        assert!(c.custom_plant().is_none());
+
+        // Half the thrust both ways: holding against the same static load needs more
+        // command, because the observer, the load compensation and the inversion all use
+        // the custom plant.
+        let mut heavy = PlantModel::load_default(ModelChoice::Model3).unwrap();
+        heavy.heave.static_load = 2.0;
+        let mut weak = heavy.clone();
+        weak.vertical = weak.vertical.scaled(0.5);
+        let base = hover_demand(Some(heavy));
+        let custom = hover_demand(Some(weak.clone()));
+        assert!(base < -1.0, "a heavy vehicle needs upward thrust: {base}");
+        assert!(
+            custom.abs() > 1.3 * base.abs() && custom.signum() == base.signum(),
+            "{base} vs {custom}"
+        );
+
+        c.set_plant("learned.toml", weak).unwrap();
+        assert_eq!(c.model_label(), "learned.toml");
+        c.command(ModeCommand::SelectModel(ModelChoice::Model2))
+            .unwrap();
+        assert_eq!(c.model_label(), "model2");
+        assert!(c.custom_plant().is_none());
+    }
+
+    #[test]
+    fn a_lagging_plant_gets_a_bounded_lead_on_its_demand() {
+        let run = |lag_s: f64| {
+            let mut p = PlantModel::load_default(ModelChoice::Model3).unwrap();
+            p.vertical_path.lag_tau_s = lag_s;
+            // Observer off: the lead is then the only difference between the two runs.
+            let cfg = ControlConfig {
+                observer_enabled: false,
+                ..ControlConfig::default()
+            };
+            let mut c = Controller::new(cfg, ModelSet::load_default().unwrap()).unwrap();
+            c.set_plant("p", p).unwrap();
+            let still = PilotInput::default();
+            let mut t = 0.0;
+            c.tick(t, &meas(3.0, 90.0), &still);
+            c.command(ModeCommand::Engage(Axis::Depth)).unwrap();
+            c.command(ModeCommand::SetDepth { depth_m: 4.0 }).unwrap();
+            let mut ff = Vec::new();
+            for _ in 0..150 {
+                t += 0.02;
+                let o = c.tick(t, &meas(3.0, 90.0), &still);
+                assert!(o.command.vertical_pct().is_finite());
+                ff.push(o.diagnostics.depth.demand_pct);
+            }
+            ff
+        };
+        let plain = run(0.0);
+        let lagged = run(0.4);
+        let diffs: Vec<f64> = plain.iter().zip(&lagged).map(|(a, b)| b - a).collect();
+        let max = diffs.iter().fold(0.0f64, |m, d| m.max(d.abs()));
+        assert!(max > 1.0, "the lead changes the demand: {max}");
+        assert!(
+            max <= crate::feedforward::LAG_LEAD_MAX_PCT + 1e-9,
+            "bounded: {max}"
+        );
+        // The lead comes first: the lagged plant's demand rises earlier.
+        let first = |v: &[f64]| v.iter().position(|x| x.abs() > 2.0);
+        assert!(
+            first(&lagged) <= first(&plain),
+            "{:?} {:?}",
+            first(&lagged),
+            first(&plain)
+        );
     }
 }

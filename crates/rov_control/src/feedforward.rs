@@ -8,6 +8,13 @@
 //!   separate forward and reverse coefficient pairs (so a model with reverse-thrust
 //!   asymmetry is honoured), or model2's linear `F = G·u%`.
 //!
+//! Any model that describes itself ([`rov_dynamics::VehicleModel::plant`], for example a
+//! lab-extended model) gives a [`PlantModel`] ([`PlantModel::from_description`]) with its
+//! full thrust path, which the inversion honours: per-sign maps (asymmetric reverse
+//! thrust), dead zones (the band is added to a non-zero demand, faded in over
+//! [`DEAD_ZONE_BLEND_PCT`]), the lag (lead compensation of the hold's demand in the
+//! controller, bounded by [`LAG_LEAD_MAX_PCT`]) and the vertical thruster's reaction torque on yaw.
+//!
 //! The same [`PlantModel`] also tells the observer which force a command produces
 //! ([`FeedforwardModel::vertical_force_for_pct`], [`FeedforwardModel::yaw_moment_for_pct`])
 //! and which inertia and damping the axes have.
@@ -78,46 +85,53 @@ fn validate_map(map: &ThrustMap, model: &str, field: &str) -> Result<(), Control
     Ok(())
 }
 
-/// One axis' rigid-body-plus-added-mass dynamics: `inertia·v̇ + (d_l + d_q·|v|)·v = τ + load`.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct AxisDynamics {
-    /// Effective inertia: mass incl. added mass (kg) or yaw inertia incl. added (kg·m²).
-    pub inertia: f64,
-    /// Linear damping (N·s/m or N·m·s/rad), ≥ 0.
-    pub damping_lin: f64,
-    /// Quadratic damping (N·s²/m² or N·m·s²/rad²), ≥ 0.
-    pub damping_quad: f64,
-    /// Constant external load (N or N·m) in the axis direction; for heave W − B (a
-    /// heavy vehicle sinks, so the load is positive = down). 0 for yaw.
-    pub static_load: f64,
+/// One axis' rigid-body-plus-added-mass dynamics (the one definition, in rov_dynamics).
+pub use rov_dynamics::plant::{AxisDynamics, PathEffects, PlantDescription};
+
+/// A dead zone's band is added in full to demands beyond this command (%) and faded in
+/// linearly below it, so a demand that changes sign does not jump across the band.
+pub const DEAD_ZONE_BLEND_PCT: f64 = 2.0;
+
+/// Largest lead (%) the lag compensation `τ·du/dt` may add to a hold's demand.
+pub const LAG_LEAD_MAX_PCT: f64 = 40.0;
+
+/// Checks an axis' parameters for finiteness and physical range.
+fn validate_axis(ax: &AxisDynamics, model: &str, axis: &str) -> Result<(), ControlError> {
+    let fields = [
+        ("inertia", ax.inertia, 1e-4, 1e4),
+        ("damping_lin", ax.damping_lin, 0.0, 1e4),
+        ("damping_quad", ax.damping_quad, 0.0, 1e4),
+        ("static_load", ax.static_load, -1e4, 1e4),
+    ];
+    for (name, v, lo, hi) in fields {
+        if !(v.is_finite() && v >= lo && v <= hi) {
+            return Err(ControlError::InvalidModel {
+                model: model.to_string(),
+                field: format!("{axis}.{name}"),
+                value: v,
+                allowed: format!("{lo}..={hi}"),
+            });
+        }
+    }
+    Ok(())
 }
 
-impl AxisDynamics {
-    /// The force needed for velocity `v` and acceleration `vdot`.
-    pub fn inverse(&self, v: f64, vdot: f64) -> f64 {
-        self.inertia * vdot + (self.damping_lin + self.damping_quad * v.abs()) * v
-            - self.static_load
-    }
-
-    fn validate(&self, model: &str, axis: &str) -> Result<(), ControlError> {
-        let fields = [
-            ("inertia", self.inertia, 1e-4, 1e4),
-            ("damping_lin", self.damping_lin, 0.0, 1e4),
-            ("damping_quad", self.damping_quad, 0.0, 1e4),
-            ("static_load", self.static_load, -1e4, 1e4),
-        ];
-        for (name, v, lo, hi) in fields {
-            if !(v.is_finite() && v >= lo && v <= hi) {
-                return Err(ControlError::InvalidModel {
-                    model: model.to_string(),
-                    field: format!("{axis}.{name}"),
-                    value: v,
-                    allowed: format!("{lo}..={hi}"),
-                });
-            }
+/// Checks a thrust path's dead zone (0..0.5) and lag (0..5 s).
+fn validate_path(p: &PathEffects, model: &str, field: &str) -> Result<(), ControlError> {
+    for (name, v, lo, hi) in [
+        ("dead_zone", p.dead_zone, 0.0, 0.5),
+        ("lag_tau_s", p.lag_tau_s, 0.0, 5.0),
+    ] {
+        if !(v.is_finite() && v >= lo && v <= hi) {
+            return Err(ControlError::InvalidModel {
+                model: model.to_string(),
+                field: format!("{field}.{name}"),
+                value: v,
+                allowed: format!("{lo}..={hi}"),
+            });
         }
-        Ok(())
     }
+    Ok(())
 }
 
 /// The heave and yaw part of one vehicle model plus its thrust maps: everything the
@@ -138,13 +152,33 @@ pub struct PlantModel {
     pub starboard: ThrustMap,
     /// Yaw lever arm of the horizontal pair, m: `N = arm·(F_port − F_starboard)`.
     pub yaw_arm_m: f64,
+    /// Yaw moment per newton of vertical heave force (the vertical thruster's reaction
+    /// torque), m; 0 for the published models.
+    pub yaw_per_heave_m: f64,
+    /// Dead zone and lag of the vertical thruster.
+    pub vertical_path: PathEffects,
+    /// Dead zone and lag of the port thruster.
+    pub port_path: PathEffects,
+    /// Dead zone and lag of the starboard thruster.
+    pub starboard_path: PathEffects,
 }
 
 impl PlantModel {
     /// Checks every parameter for finiteness and physical range.
     pub fn validate(&self) -> Result<(), ControlError> {
-        self.heave.validate(&self.name, "heave")?;
-        self.yaw.validate(&self.name, "yaw")?;
+        validate_axis(&self.heave, &self.name, "heave")?;
+        validate_axis(&self.yaw, &self.name, "yaw")?;
+        validate_path(&self.vertical_path, &self.name, "vertical_path")?;
+        validate_path(&self.port_path, &self.name, "port_path")?;
+        validate_path(&self.starboard_path, &self.name, "starboard_path")?;
+        if !(self.yaw_per_heave_m.is_finite() && self.yaw_per_heave_m.abs() <= 1.0) {
+            return Err(ControlError::InvalidModel {
+                model: self.name.clone(),
+                field: "yaw_per_heave_m".into(),
+                value: self.yaw_per_heave_m,
+                allowed: "-1..=1".into(),
+            });
+        }
         validate_map(&self.vertical, &self.name, "vertical")?;
         validate_map(&self.port, &self.name, "port")?;
         validate_map(&self.starboard, &self.name, "starboard")?;
@@ -170,135 +204,91 @@ impl PlantModel {
         self.yaw_arm_m * d.force_n(100.0).min(-d.force_n(-100.0))
     }
 
-    /// Model1 (Enevoldsen et al. 2018) from rov_dynamics' parameters. The paper's form
-    /// `m·ẇ = β_w·(α_w·F − D(w))` gives the thrust needed as
-    /// `F = m/(α_w·β_w)·ẇ + D(w)/α_w`, so the equivalent axis has inertia
-    /// `m/(α·β)` and damping `D/α`; neutral buoyancy (no W − B).
+    /// From a model's own plant description ([`rov_dynamics::VehicleModel::plant`]).
+    pub fn from_description(d: PlantDescription) -> Self {
+        PlantModel {
+            name: d.name,
+            heave: d.heave,
+            yaw: d.yaw,
+            vertical: d.vertical,
+            port: d.port,
+            starboard: d.starboard,
+            yaw_arm_m: d.yaw_arm_m,
+            yaw_per_heave_m: d.yaw_per_heave_m,
+            vertical_path: d.vertical_path,
+            port_path: d.port_path,
+            starboard_path: d.starboard_path,
+        }
+    }
+
+    /// Model1 (Enevoldsen et al. 2018) from rov_dynamics' parameters
+    /// ([`PlantDescription::from_model1`]).
     pub fn from_model1(p: &rov_dynamics::models::Model1Params) -> Self {
-        let [_, alpha_w, alpha_r] = p.alpha;
-        let [_, beta_w, beta_r] = p.beta;
-        PlantModel {
-            name: "model1".into(),
-            heave: AxisDynamics {
-                inertia: p.mass_kg / (alpha_w * beta_w),
-                damping_lin: p.heave_drag.linear / alpha_w,
-                damping_quad: p.heave_drag.quadratic / alpha_w,
-                static_load: 0.0,
-            },
-            yaw: AxisDynamics {
-                inertia: p.yaw_inertia_kgm2 / (alpha_r * beta_r),
-                damping_lin: p.yaw_drag.linear / alpha_r,
-                damping_quad: p.yaw_drag.quadratic / alpha_r,
-                static_load: 0.0,
-            },
-            vertical: p.vertical,
-            port: p.port,
-            starboard: p.starboard,
-            yaw_arm_m: p.yaw_arm_m(),
-        }
+        Self::from_description(PlantDescription::from_model1(p))
     }
 
-    /// Model2 (Arnesen 2016) from rov_dynamics' parameters: `M = m − Z_ẇ`, `I_z − N_ṙ`,
-    /// damping `−Z_w, −Z_|w|w, −N_r, −N_|r|r`, load `W − B`, linear maps G1 (per
-    /// horizontal thruster) and G2, lever arm `G3/G1`.
+    /// Model2 (Arnesen 2016) ([`PlantDescription::from_model2`]).
     pub fn from_model2(p: &rov_dynamics::models::Model2Params) -> Self {
-        PlantModel {
-            name: "model2".into(),
-            heave: AxisDynamics {
-                inertia: p.mass_kg - p.z_wdot_kg,
-                damping_lin: -p.z_w,
-                damping_quad: -p.z_ww,
-                static_load: p.weight_n - p.buoyancy_n,
-            },
-            yaw: AxisDynamics {
-                inertia: p.yaw_inertia_kgm2 - p.n_rdot_kgm2,
-                damping_lin: -p.n_r,
-                damping_quad: -p.n_rr,
-                static_load: 0.0,
-            },
-            vertical: ThrustMap::linear(p.g2_n_per_pct),
-            port: ThrustMap::linear(p.g1_n_per_pct),
-            starboard: ThrustMap::linear(p.g1_n_per_pct),
-            yaw_arm_m: if p.g1_n_per_pct > 0.0 {
-                p.g3_nm_per_pct / p.g1_n_per_pct
-            } else {
-                0.0
-            },
-        }
+        Self::from_description(PlantDescription::from_model2(p))
     }
 
-    /// Model3 (Mai et al. 2017): the heave and yaw diagonal of its 6-DOF mass matrix
-    /// (rigid body about CO plus added mass) and damping, `W − B`, and the thrusters'
-    /// maps scaled by their geometry (heave force per newton of the vertical thruster,
-    /// yaw moment per newton of each horizontal one).
+    /// Model3 (Mai et al. 2017) ([`PlantDescription::from_model3`]).
     pub fn from_model3(m: &rov_dynamics::models::Model3) -> Self {
-        let p = m.params();
-        let mm = m.process().mass_matrix();
-        let d = &p.process.damping;
-        let entry =
-            |mat: &rov_dynamics::Matrix6, i: usize| mat.get((i, i)).copied().unwrap_or(f64::NAN);
-        let quad = |i: usize| d.quadratic.get(i).copied().unwrap_or(f64::NAN);
-        let th = &p.thrusters;
-        let heave_per_n = th
-            .vertical
-            .geometry
-            .tau(1.0)
-            .get(2)
-            .copied()
-            .unwrap_or(f64::NAN);
-        let yaw_port = th
-            .port
-            .geometry
-            .tau(1.0)
-            .get(5)
-            .copied()
-            .unwrap_or(f64::NAN);
-        let yaw_stbd = -th
-            .starboard
-            .geometry
-            .tau(1.0)
-            .get(5)
-            .copied()
-            .unwrap_or(f64::NAN);
-        let arm = 0.5 * (yaw_port + yaw_stbd);
-        // Per-thruster maps carry any port/starboard difference in lever arm.
-        let (port_k, stbd_k) = if arm > 0.0 {
-            (yaw_port / arm, yaw_stbd / arm)
-        } else {
-            (1.0, 1.0)
-        };
-        PlantModel {
-            name: "model3".into(),
-            heave: AxisDynamics {
-                inertia: entry(mm, 2),
-                damping_lin: entry(&d.linear, 2),
-                damping_quad: quad(2),
-                static_load: m.net_weight_n(),
-            },
-            yaw: AxisDynamics {
-                inertia: entry(mm, 5),
-                damping_lin: entry(&d.linear, 5),
-                damping_quad: quad(5),
-                static_load: 0.0,
-            },
-            vertical: th.vertical.map.as_quadratic().scaled(heave_per_n),
-            port: th.port.map.as_quadratic().scaled(port_k),
-            starboard: th.starboard.map.as_quadratic().scaled(stbd_k),
-            yaw_arm_m: arm,
+        Self::from_description(PlantDescription::from_model3(m))
+    }
+
+    /// From any rov_dynamics model that describes its plant (the three published models,
+    /// the lab's extended models); `None` for a model that does not.
+    pub fn from_vehicle_model(m: &dyn rov_dynamics::VehicleModel) -> Option<Self> {
+        m.plant().map(Self::from_description)
+    }
+
+    /// The lag time constants (s) of the vertical channel and of the horizontal pair
+    /// (their mean): what the lead compensation of each axis uses.
+    pub fn lag_taus_s(&self) -> (f64, f64) {
+        (
+            self.vertical_path.lag_tau_s,
+            0.5 * (self.port_path.lag_tau_s + self.starboard_path.lag_tau_s),
+        )
+    }
+
+    /// Whether any thruster lags.
+    pub fn has_lag(&self) -> bool {
+        let (v, h) = self.lag_taus_s();
+        v > 1e-6 || h > 1e-6
+    }
+
+    /// The vertical command that produces heave force `f_n` through the whole path
+    /// (per-sign map, then the dead band added); saturates at ±100 % and says so, never
+    /// NaN.
+    pub fn vertical_inverse(&self, f_n: f64) -> rov_dynamics::thrusters::ThrustInverse {
+        let inv = self.vertical.inverse(f_n);
+        rov_dynamics::thrusters::ThrustInverse {
+            pct: self
+                .vertical_path
+                .before_dead_zone(inv.pct, DEAD_ZONE_BLEND_PCT),
+            saturated: inv.saturated,
         }
     }
 
-    /// From any rov_dynamics model that is one of the three (by downcasting); `None` for
-    /// other models.
-    pub fn from_vehicle_model(m: &dyn rov_dynamics::VehicleModel) -> Option<Self> {
-        let any = m.as_any();
-        if let Some(m1) = any.downcast_ref::<rov_dynamics::models::Model1>() {
-            Some(Self::from_model1(m1.params()))
-        } else if let Some(m2) = any.downcast_ref::<rov_dynamics::models::Model2>() {
-            Some(Self::from_model2(m2.params()))
-        } else {
-            any.downcast_ref::<rov_dynamics::models::Model3>()
-                .map(Self::from_model3)
+    /// The differential command (port +pct, starboard −pct) that produces yaw moment
+    /// `n_nm` through the whole path; saturates and says so, never NaN.
+    pub fn differential_inverse(&self, n_nm: f64) -> rov_dynamics::thrusters::ThrustInverse {
+        if !(n_nm.is_finite() && self.yaw_arm_m > 0.0) {
+            return rov_dynamics::thrusters::ThrustInverse {
+                pct: 0.0,
+                saturated: !n_nm.is_finite(),
+            };
+        }
+        let inv =
+            ThrustMap::differential(&self.port, &self.starboard).inverse(n_nm / self.yaw_arm_m);
+        let path = PathEffects {
+            dead_zone: 0.5 * (self.port_path.dead_zone + self.starboard_path.dead_zone),
+            lag_tau_s: 0.0,
+        };
+        rov_dynamics::thrusters::ThrustInverse {
+            pct: path.before_dead_zone(inv.pct, DEAD_ZONE_BLEND_PCT),
+            saturated: inv.saturated,
         }
     }
 
@@ -325,23 +315,26 @@ impl FeedforwardModel for PlantModel {
     }
 
     fn vertical_pct_for_force(&self, f_n: f64) -> f64 {
-        self.vertical.pct_for_force(f_n)
+        self.vertical_inverse(f_n).pct
     }
 
     fn differential_pct_for_moment(&self, n_nm: f64) -> f64 {
-        if !(n_nm.is_finite() && self.yaw_arm_m > 0.0) {
-            return 0.0;
-        }
-        ThrustMap::differential(&self.port, &self.starboard).pct_for_force(n_nm / self.yaw_arm_m)
+        self.differential_inverse(n_nm).pct
     }
 
     fn vertical_force_for_pct(&self, vertical_pct: f64) -> f64 {
-        self.vertical.force_n_clamped(vertical_pct)
+        self.vertical
+            .force_n_clamped(self.vertical_path.through_dead_zone(vertical_pct))
     }
 
     fn yaw_moment_for_pct(&self, port_pct: f64, starboard_pct: f64) -> f64 {
         self.yaw_arm_m
-            * (self.port.force_n_clamped(port_pct) - self.starboard.force_n_clamped(starboard_pct))
+            * (self
+                .port
+                .force_n_clamped(self.port_path.through_dead_zone(port_pct))
+                - self
+                    .starboard
+                    .force_n_clamped(self.starboard_path.through_dead_zone(starboard_pct)))
     }
 }
 
@@ -369,6 +362,108 @@ mod tests {
                 "{choice:?} {}",
                 p.yaw_moment_max_nm()
             );
+        }
+    }
+
+    /// model3 with a weak reverse vertical map, a dead zone, a lag and a reaction torque.
+    fn hurt_plant() -> PlantModel {
+        let mut p = PlantModel::load_default(ModelChoice::Model3).unwrap();
+        p.vertical.reverse = p.vertical.forward;
+        p.vertical.reverse.linear_n *= 0.5;
+        p.vertical.reverse.quadratic_n *= 0.5;
+        let path = PathEffects {
+            dead_zone: 0.08,
+            lag_tau_s: 0.3,
+        };
+        p.vertical_path = path;
+        p.port_path = path;
+        p.starboard_path = path;
+        p.yaw_per_heave_m = 0.02;
+        p.validate().unwrap();
+        p
+    }
+
+    #[test]
+    fn full_thrust_path_round_trips_per_sign_through_the_dead_zone() {
+        let p = hurt_plant();
+        let (lo, hi) = p.vertical_force_range_n();
+        // The reverse (upward) reach is half the forward reach.
+        assert!((lo + 0.5 * hi).abs() < 1e-9, "{lo} {hi}");
+        for f in [lo * 0.99, -3.0, -0.4, 0.4, 3.0, hi * 0.99] {
+            let inv = p.vertical_inverse(f);
+            assert!(!inv.saturated);
+            // Beyond the blend the dead band is added in full.
+            assert!(
+                inv.pct.abs() >= 8.0 + DEAD_ZONE_BLEND_PCT * 0.92 - 1e-9,
+                "{f}: {}",
+                inv.pct
+            );
+            let back = p.vertical_force_for_pct(inv.pct);
+            assert!((back - f).abs() < 1e-9, "{f} -> {} -> {back}", inv.pct);
+        }
+        for n in [-2.0, -0.3, 0.3, 2.0] {
+            let pct = p.differential_pct_for_moment(n);
+            assert!((p.yaw_moment_for_pct(pct, -pct) - n).abs() < 1e-9);
+        }
+        // A command inside the dead zone gives no force.
+        assert_eq!(p.vertical_force_for_pct(7.9), 0.0);
+        assert_eq!(p.lag_taus_s(), (0.3, 0.3));
+        assert!(p.has_lag());
+    }
+
+    #[test]
+    fn full_path_inverse_saturates_and_says_so_never_nan() {
+        let p = hurt_plant();
+        let (lo, hi) = p.vertical_force_range_n();
+        for f in [
+            lo * 1.5,
+            hi * 1.5,
+            f64::NAN,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+        ] {
+            let inv = p.vertical_inverse(f);
+            assert!(inv.saturated, "{f}");
+            assert!(
+                inv.pct.is_finite() && inv.pct.abs() <= 100.0,
+                "{f}: {}",
+                inv.pct
+            );
+        }
+        assert_eq!(p.vertical_inverse(lo * 2.0).pct, -100.0);
+        for n in [1e6, -1e6, f64::NAN] {
+            let inv = p.differential_inverse(n);
+            assert!(inv.saturated && inv.pct.is_finite() && inv.pct.abs() <= 100.0);
+        }
+    }
+
+    #[test]
+    fn a_bad_path_parameter_is_refused_with_field_value_and_range() {
+        let mut p = hurt_plant();
+        p.vertical_path.dead_zone = 0.7;
+        let e = p.validate().unwrap_err().to_string();
+        assert!(
+            e.contains("vertical_path.dead_zone") && e.contains("0.7"),
+            "{e}"
+        );
+        let mut p = hurt_plant();
+        p.port_path.lag_tau_s = f64::NAN;
+        assert!(
+            p.validate()
+                .unwrap_err()
+                .to_string()
+                .contains("port_path.lag_tau_s")
+        );
+    }
+
+    #[test]
+    fn the_published_models_describe_themselves() {
+        for choice in ModelChoice::ALL {
+            let m = rov_dynamics::load_default_model(choice.name()).unwrap();
+            let d = m.plant().expect("a published model has a plant");
+            let p = PlantModel::from_description(d);
+            assert_eq!(p, PlantModel::load_default(choice).unwrap());
+            assert!(!p.has_lag() && p.yaw_per_heave_m == 0.0);
         }
     }
 

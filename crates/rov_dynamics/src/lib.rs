@@ -19,6 +19,8 @@
 //! * [`sensors`]: IMU, DVL, transponder, pressure gauge (eq. 42–48) and the Pro 4's
 //!   integer telemetry ([`sensors::Pro4Outputs`]).
 //! * [`integrators`]: RK4 and Fossen's semi-implicit Euler.
+//! * [`plant`]: a model reduced to heave and yaw with its thrust path, for autopilots
+//!   ([`VehicleModel::plant`]).
 //! * [`models`]: the three VideoRay models of seed 000 behind [`models::VehicleModel`],
 //!   their parameter-file loaders and [`models::simulate`].
 #![cfg_attr(
@@ -33,6 +35,7 @@ pub mod integrators;
 pub mod kinematics;
 pub mod math;
 pub mod models;
+pub mod plant;
 pub mod process;
 pub mod sensors;
 pub mod thrusters;

@@ -163,8 +163,20 @@ pub(crate) fn autopilot_panel(app: &mut StationApp, ui: &mut Ui) {
                 mode_cmd(app, ModeCommand::SetFeedforward(ff));
             }
             let mut model = v.model;
+            // The model the autopilot uses: a shipped one, or a model file's name (the
+            // full path in the tooltip).
+            let shown = if v.model_label.is_empty() {
+                model.name().to_string()
+            } else {
+                std::path::Path::new(&v.model_label)
+                    .file_name()
+                    .map_or_else(
+                        || v.model_label.clone(),
+                        |n| n.to_string_lossy().into_owned(),
+                    )
+            };
             egui::ComboBox::new("model", "model")
-                .selected_text(model.name())
+                .selected_text(shown)
                 .width(90.0)
                 .show_ui(ui, |ui| {
                     for m in ModelChoice::ALL {

@@ -35,8 +35,9 @@ use rov_dynamics::models::{
     Channel, Environment, InitialConditions, Model1, Model2, Model3, ModelOutput, ModelState,
     ThrusterForces, VehicleModel, load_model,
 };
+use rov_dynamics::plant::{PathEffects, PlantDescription};
 use rov_dynamics::process::CurrentSample;
-use rov_dynamics::thrusters::{ThrustMap, ThrustPct};
+use rov_dynamics::thrusters::{QuadraticThrustMap, ThrustMap, ThrustPair, ThrustPct};
 
 use crate::LabError;
 use crate::catalog::EffectId;
@@ -1691,6 +1692,64 @@ impl VehicleModel for LabModel {
 
     fn initial_state(&self, ic: &InitialConditions) -> ModelState {
         self.restrict_state(ic.to_state())
+    }
+
+    /// The base's heave and yaw reduction (with calibrated damping, added mass and
+    /// buoyancy) and this model's thrust path: the calibrated per-thruster maps with the
+    /// reverse ratio of the asymmetry effect, the dead zone, the lags, and the vertical
+    /// thruster's reaction torque on yaw. The power limit, asymmetric drag, tether,
+    /// current and discovered terms are not part of the reduction (the observer's bias
+    /// takes what they leave). `None` for vehicle-file bases (N thrusters).
+    fn plant(&self) -> Option<PlantDescription> {
+        let mut d = self.pro4_dyn()?.plant()?;
+        let taus = self.lag_taus();
+        let mut maps = [d.port, d.starboard, d.vertical];
+        let mut paths = [PathEffects::default(); 3];
+        let mut gains = [0.0; 3];
+        for (i, (map, path)) in maps.iter_mut().zip(paths.iter_mut()).enumerate() {
+            let (cl, cq) = (
+                self.coef_lin.get(i).copied().unwrap_or(0.0),
+                self.coef_quad.get(i).copied().unwrap_or(0.0),
+            );
+            // The base map's geometry factor (axis force per newton of this thruster).
+            let base_n = cl + cq;
+            let k = if base_n > 0.0 {
+                (map.forward.linear_n + map.forward.quadratic_n) / base_n
+            } else {
+                0.0
+            };
+            let g = self.thruster_group(i).index();
+            let forward = ThrustPair {
+                linear_n: self.thrust_lin[g] * cl,
+                quadratic_n: self.thrust_quad[g] * cq,
+            };
+            let r = self.fx.reverse_ratio[g];
+            let reverse = ThrustPair {
+                linear_n: r * forward.linear_n,
+                quadratic_n: r * forward.quadratic_n,
+            };
+            *map = QuadraticThrustMap { forward, reverse }.scaled(k);
+            *path = PathEffects {
+                dead_zone: self.fx.deadzone,
+                lag_tau_s: taus.get(i).copied().unwrap_or(0.0),
+            };
+            gains[i] = k;
+        }
+        let [port, starboard, vertical] = maps;
+        d.port = port;
+        d.starboard = starboard;
+        d.vertical = vertical;
+        [d.port_path, d.starboard_path, d.vertical_path] = paths;
+        if self.kind == BaseKind::Model1 {
+            d.heave.static_load += self.fx.net_weight_m1_n;
+        }
+        d.yaw_per_heave_m = if gains[2] > 0.0 {
+            self.fx.torque_v_m / gains[2]
+        } else {
+            0.0
+        };
+        d.name = self.name.clone();
+        Some(d)
     }
 
     fn clone_box(&self) -> Box<dyn VehicleModel> {

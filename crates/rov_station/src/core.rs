@@ -125,6 +125,25 @@ impl StationCore {
         self.last_output.as_ref()
     }
 
+    /// Uses a custom plant (any model's) under `label` for the autopilot's feedforward,
+    /// observer and feedback ([`Controller::set_plant`]); a plant that does not validate
+    /// is refused and the previous model stays.
+    pub fn set_plant(
+        &mut self,
+        label: &str,
+        plant: rov_control::PlantModel,
+    ) -> Result<(), ControlError> {
+        self.controller.set_plant(label, plant)
+    }
+
+    /// A controller command that needs no link (model selection, feedforward switch).
+    pub fn controller_command(
+        &mut self,
+        cmd: rov_control::ModeCommand,
+    ) -> Result<(), ControlError> {
+        self.controller.command(cmd)
+    }
+
     /// The latest telemetry.
     pub fn last_telemetry(&self) -> Option<&Telemetry> {
         self.last_telemetry.as_ref()

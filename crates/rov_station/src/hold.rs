@@ -49,8 +49,11 @@ pub enum Disturbance {
 /// What to run.
 #[derive(Debug, Clone, PartialEq)]
 pub struct HoldSpec {
-    /// Feedforward model.
+    /// Feedforward model (when `autopilot_model` is `None`).
     pub model: ModelChoice,
+    /// Any model's plant for the autopilot (feedforward, observer, feedback), e.g. from
+    /// a model file the lab saved; `None`: `model` from the shipped set.
+    pub autopilot_model: Option<AutopilotModel>,
     /// Depth target, m.
     pub depth_m: f64,
     /// Heading target, degrees.
@@ -78,6 +81,38 @@ pub struct HoldSpec {
     pub vehicle: Option<VehicleDynamics>,
 }
 
+/// A plant for the autopilot with the label it is reported under.
+#[derive(Debug, Clone, PartialEq)]
+pub struct AutopilotModel {
+    /// Where the model came from (a file name).
+    pub label: String,
+    /// The plant.
+    pub plant: rov_control::PlantModel,
+}
+
+impl AutopilotModel {
+    /// The autopilot plant of any model, or an error naming the model when it cannot be
+    /// reduced to the autopilot's axes (a vehicle-file base) or its plant is invalid.
+    pub fn from_vehicle_model(
+        label: &str,
+        model: &dyn rov_dynamics::VehicleModel,
+    ) -> Result<Self, HoldError> {
+        let plant = rov_control::PlantModel::from_vehicle_model(model).ok_or_else(|| {
+            HoldError::Invalid(format!(
+                "{label}: this model has no heave/yaw plant for the autopilot (a vehicle \
+                 file with its own thruster layout); use a model1, model2 or model3 base"
+            ))
+        })?;
+        let mut plant = plant;
+        plant.name = label.to_string();
+        plant.validate()?;
+        Ok(Self {
+            label: label.to_string(),
+            plant,
+        })
+    }
+}
+
 /// A vehicle model for the simulated vehicle of a hold run, with a label for reports.
 #[derive(Debug, Clone)]
 pub struct VehicleDynamics {
@@ -98,6 +133,7 @@ impl HoldSpec {
     pub fn step(model: ModelChoice, depth_m: f64, heading_deg: f64, duration_s: f64) -> Self {
         Self {
             model,
+            autopilot_model: None,
             depth_m,
             heading_deg,
             duration_s,
@@ -349,14 +385,19 @@ impl SimApp for App<'_> {
 impl App<'_> {
     fn engage(&mut self, link: &mut Link, now_us: u64) -> Result<(), HoldError> {
         let s = self.spec;
-        for m in [
-            ModeCommand::SelectModel(s.model),
+        // A custom autopilot model was set before arming; selecting a shipped one would
+        // replace it.
+        let select = s
+            .autopilot_model
+            .is_none()
+            .then_some(ModeCommand::SelectModel(s.model));
+        for m in select.into_iter().chain([
             ModeCommand::SetFeedforward(s.feedforward),
             ModeCommand::SetDepth { depth_m: s.depth_m },
             ModeCommand::SetHeading {
                 heading_deg: s.heading_deg,
             },
-        ] {
+        ]) {
             self.core.command(link, StationCommand::Mode(m), now_us)?;
         }
         Ok(())
@@ -450,7 +491,10 @@ pub fn run_hold_with(
     control.observer_enabled = spec.observer;
     control.feedforward_model = spec.model;
     control.feedforward_enabled = spec.feedforward;
-    let core = StationCore::new(control, ModelSet::load_default()?)?;
+    let mut core = StationCore::new(control, ModelSet::load_default()?)?;
+    if let Some(a) = &spec.autopilot_model {
+        core.set_plant(&a.label, a.plant.clone())?;
+    }
     let link = Link::new(LinkConfig::default())?;
     let vehicle = build_vehicle(spec)?;
     let mut sim = SimLink::new(link, vehicle, TICK_US);

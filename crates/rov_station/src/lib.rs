@@ -40,8 +40,8 @@ pub mod runtime;
 
 pub use core::{CommandError, Snapshot, StationCommand, StationCore};
 pub use hold::{
-    Disturbance, HoldError, HoldReport, HoldSpec, HoldTrace, TrackingReport, VehicleDynamics,
-    run_hold, run_hold_with,
+    AutopilotModel, Disturbance, HoldError, HoldReport, HoldSpec, HoldTrace, TrackingReport,
+    VehicleDynamics, run_hold, run_hold_with,
 };
 pub use runtime::{
     Connection, Runtime, RuntimeCommand, RuntimeConfig, RuntimeError, StationHandle, StationView,

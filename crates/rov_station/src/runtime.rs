@@ -135,6 +135,12 @@ pub struct RuntimeConfig {
     pub reconnect: ReconnectSettings,
     /// The camera (`[video]`, `--video`); none by default.
     pub video: video::VideoSettings,
+    /// The simulated vehicle's dynamics (`--vehicle FILE.toml`: any model, effects
+    /// included, behind the same wire protocol and sensors); `None`: model3 as shipped.
+    pub sim_vehicle: Option<crate::hold::VehicleDynamics>,
+    /// The autopilot's model when it is not one of the shipped set (`--model FILE.toml`,
+    /// `[autopilot] model`): set before the first tick; `None`: `control.feedforward_model`.
+    pub autopilot_model: Option<crate::hold::AutopilotModel>,
 }
 
 impl Default for RuntimeConfig {
@@ -156,6 +162,8 @@ impl Default for RuntimeConfig {
             record_blocking: false,
             reconnect: ReconnectSettings::default(),
             video: video::VideoSettings::none(),
+            sim_vehicle: None,
+            autopilot_model: None,
         }
     }
 }
@@ -275,6 +283,17 @@ pub enum RuntimeCommand {
     /// A virtual gamepad's raw state (tests and other input devices): mapped exactly
     /// like a real pad's, and stale after [`RuntimeConfig::keyboard_timeout_us`].
     PadInput(pad::PadState),
+    /// Use this model for the autopilot (feedforward, observer, feedback inversion);
+    /// `None`: back to `control.feedforward_model` of the shipped set. Refused while the
+    /// vehicle is armed unless `confirmed` (the GUI's hold-to-confirm); a plant that does
+    /// not validate is refused too, and the autopilot keeps its previous model (the
+    /// refusal is an event and `StationView::last_refusal`).
+    AutopilotModel {
+        /// The model (None: the configured shipped one).
+        model: Option<Box<crate::hold::AutopilotModel>>,
+        /// The pilot confirmed the change while armed.
+        confirmed: bool,
+    },
     /// Fault injection for tests: block the control thread for this long.
     InjectStall(Duration),
     /// Stop the runtime.

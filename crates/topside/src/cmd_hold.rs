@@ -4,21 +4,39 @@
 use anyhow::Context as _;
 use clap::{Args, ValueEnum};
 use rov_control::{ModelChoice, TrackingProfile};
-use rov_station::{Disturbance, HoldSpec, VehicleDynamics, run_hold};
+use rov_station::{AutopilotModel, Disturbance, HoldSpec, VehicleDynamics, run_hold};
 use rov_types::ModelId;
 use rov_types::angle::wrap_deg_360;
 
-/// `--model`: parsed as every model name is ([`rov_types::ModelId`]); `hold` takes the
-/// three shipped models (a model file for the feedforward is issue 14's next step).
-fn parse_model(s: &str) -> Result<ModelChoice, String> {
-    match s.parse::<ModelId>() {
-        Ok(ModelId::Base(b)) => Ok(b),
-        Ok(ModelId::File(p)) => Err(format!(
-            "{}: hold's feedforward takes model1, model2 or model3 (a model file is accepted \
-             by --vehicle)",
-            p.display()
-        )),
-        Err(e) => Err(e.to_string()),
+/// `--model`: parsed as every model name is ([`rov_types::ModelId`]).
+fn parse_model(s: &str) -> Result<ModelId, String> {
+    s.parse::<ModelId>().map_err(|e| e.to_string())
+}
+
+/// A model file as a simulation model: the lab's loader reads every file `lab add --save`
+/// writes and the shipped parameter files (errors name the file, key, value and range).
+pub fn load_model_file(
+    path: &std::path::Path,
+) -> anyhow::Result<(String, Box<dyn rov_dynamics::VehicleModel>)> {
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+    let label = path.display().to_string();
+    let model = rov_lab::load_extended_model(&text, &label)?;
+    Ok((label, model))
+}
+
+/// The autopilot's model for `--model`: a shipped base (`None`, selected by name) or a
+/// model file's plant, refused with the file named before anything runs.
+pub fn autopilot_model(id: &ModelId) -> anyhow::Result<Option<AutopilotModel>> {
+    match id {
+        ModelId::Base(_) => Ok(None),
+        ModelId::File(path) => {
+            let (label, model) = load_model_file(path)?;
+            Ok(Some(AutopilotModel::from_vehicle_model(
+                &label,
+                model.as_ref(),
+            )?))
+        }
     }
 }
 
@@ -53,10 +71,13 @@ pub enum OnOff {
 #[derive(Debug, Args)]
 #[command(allow_negative_numbers = true, after_long_help = PROFILE_HELP)]
 pub struct HoldArgs {
-    /// Model supplying the feedforward: model1 (Enevoldsen et al. 2018), model2 (Arnesen
-    /// 2016) or model3 (Mai et al. 2017).
-    #[arg(long, value_parser = parse_model)]
-    model: ModelChoice,
+    /// The autopilot's model (feedforward; with a file also the observer and the
+    /// feedback's thrust inversion): model1 (Enevoldsen et al. 2018), model2 (Arnesen
+    /// 2016), model3 (Mai et al. 2017) or FILE.toml (a model the lab saved with `lab add
+    /// --save`, or a shipped parameter file), whose effects (asymmetric reverse thrust,
+    /// dead zone, lag, reaction torque) the autopilot inverts.
+    #[arg(long, value_parser = parse_model, value_name = "MODEL|FILE.toml")]
+    model: ModelId,
     /// Depth target, m (positive down).
     #[arg(long)]
     depth_m: f64,
@@ -128,8 +149,12 @@ tracking_rmse compares the true depth and heading with this reference from engag
 hold time after the profile. The step metrics then describe the final step at 110 s.";
 
 pub fn run(args: HoldArgs) -> anyhow::Result<std::process::ExitCode> {
-    let model = args.model;
-    let mut spec = HoldSpec::step(model, args.depth_m, args.heading_deg, args.duration_s);
+    let base = match &args.model {
+        ModelId::Base(b) => *b,
+        ModelId::File(_) => ModelChoice::Model3,
+    };
+    let mut spec = HoldSpec::step(base, args.depth_m, args.heading_deg, args.duration_s);
+    spec.autopilot_model = autopilot_model(&args.model)?;
     spec.profile = args.profile.map(|p| match p {
         ProfileArg::Survey => TrackingProfile::Survey,
     });
@@ -152,10 +177,7 @@ pub fn run(args: HoldArgs) -> anyhow::Result<std::process::ExitCode> {
     spec.observer = args.observer == OnOff::On;
     spec.seed = args.seed;
     if let Some(path) = &args.vehicle {
-        let text =
-            std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
-        let label = path.display().to_string();
-        let model = rov_lab::load_extended_model(&text, &label)?;
+        let (label, model) = load_model_file(path)?;
         spec.vehicle = Some(VehicleDynamics { label, model });
     }
     let (report, _trace) = run_hold(&spec)?;

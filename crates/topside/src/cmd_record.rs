@@ -107,6 +107,14 @@ pub struct RecordArgs {
     /// port; stderr says which).
     #[arg(long, value_name = "ADDR:PORT")]
     foxglove_ws: Option<String>,
+    /// The autopilot's model: model1, model2, model3 or FILE.toml (overrides
+    /// `[autopilot] model`).
+    #[arg(long, value_name = "MODEL|FILE.toml", value_parser = crate::parse_model_id)]
+    model: Option<rov_types::ModelId>,
+    /// The simulated vehicle's dynamics: any model file (e.g. `lab add --save` output),
+    /// effects included, behind the same wire protocol and sensors. Default: model3.
+    #[arg(long, value_name = "FILE.toml")]
+    vehicle: Option<PathBuf>,
 }
 
 /// Stick positions in a script.
@@ -371,6 +379,7 @@ fn runtime_config(
         sim_seed: args.seed,
         ..cfg
     };
+    crate::cmd_station::apply_models(&mut cfg, args.model.as_ref(), args.vehicle.as_deref())?;
     cfg.video.source.clone_from(&args.video);
     Ok((cfg, live))
 }

@@ -63,6 +63,19 @@ fn config_all(
     let pilot =
         settings::load_all(&loaded.text, &label).with_context(|| format!("reading {label}"))?;
     let (alarms, station) = (pilot.alarms, pilot.station);
+    // `[autopilot] model`: a relative file is taken from the settings file's folder.
+    let autopilot_id = pilot
+        .autopilot
+        .model
+        .clone()
+        .map(|id| match (id, &loaded.path) {
+            (rov_types::ModelId::File(p), Some(cfg_path)) if p.is_relative() => {
+                rov_types::ModelId::File(
+                    cfg_path.parent().map_or_else(|| p.clone(), |d| d.join(&p)),
+                )
+            }
+            (id, _) => id,
+        });
     let mut sim_faults = rov_station::runtime::SimFaults::none();
     sim_faults.drop_reply = station.sim_link_errors_pct / 100.0;
     let save_to = loaded
@@ -70,10 +83,21 @@ fn config_all(
         .clone()
         .or(user)
         .unwrap_or_else(|| PathBuf::from("station.toml"));
+    let mut control = loaded.control;
+    let mut autopilot_model = None;
+    match &autopilot_id {
+        Some(rov_types::ModelId::Base(b)) => control.feedforward_model = *b,
+        Some(id @ rov_types::ModelId::File(_)) => {
+            autopilot_model = crate::cmd_hold::autopilot_model(id)
+                .with_context(|| format!("{label}: [autopilot] model"))?;
+        }
+        None => {}
+    }
     Ok((
         RuntimeConfig {
             connection: port.map_or(Connection::Sim, Connection::Serial),
-            control: loaded.control,
+            control,
+            autopilot_model,
             config_toml: loaded.text,
             alarms,
             sim_faults,
@@ -88,6 +112,43 @@ fn config_all(
     ))
 }
 
+/// Where the window's settings and models come from: `--config`, `--model`, `--vehicle`.
+#[derive(Debug, Default)]
+pub struct StationSources<'a> {
+    /// The settings file.
+    pub config: Option<&'a std::path::Path>,
+    /// The autopilot's model.
+    pub model: Option<rov_types::ModelId>,
+    /// The simulated vehicle's model file.
+    pub vehicle: Option<PathBuf>,
+}
+
+/// `--model` and `--vehicle` on top of the settings: the autopilot's model (a shipped
+/// one by name, or a model file's plant) and the simulated vehicle's dynamics (any model
+/// file). Both are loaded and checked here, before a station starts or anything is armed;
+/// an error names the file, key, value and allowed range.
+pub fn apply_models(
+    cfg: &mut RuntimeConfig,
+    model: Option<&rov_types::ModelId>,
+    vehicle: Option<&std::path::Path>,
+) -> anyhow::Result<()> {
+    match model {
+        Some(rov_types::ModelId::Base(b)) => {
+            cfg.control.feedforward_model = *b;
+            cfg.autopilot_model = None;
+        }
+        Some(id @ rov_types::ModelId::File(_)) => {
+            cfg.autopilot_model = crate::cmd_hold::autopilot_model(id).context("--model")?;
+        }
+        None => {}
+    }
+    if let Some(path) = vehicle {
+        let (label, model) = crate::cmd_hold::load_model_file(path).context("--vehicle")?;
+        cfg.sim_vehicle = Some(rov_station::VehicleDynamics { label, model });
+    }
+    Ok(())
+}
+
 /// "1024x600" → [1024, 600] (at least 1024×600, at most 7680×4320).
 fn parse_size(s: &str) -> Option<[f32; 2]> {
     let (w, h) = s.split_once('x')?;
@@ -99,12 +160,13 @@ fn parse_size(s: &str) -> Option<[f32; 2]> {
 pub fn run_station(
     port: Option<String>,
     video: Option<String>,
-    config_path: Option<&std::path::Path>,
+    settings: StationSources<'_>,
     record_to: Option<PathBuf>,
     screenshot: Option<(PathBuf, f64)>,
     window_size: Option<String>,
     foxglove_ws: Option<String>,
 ) -> anyhow::Result<ExitCode> {
+    let config_path = settings.config;
     let size = match window_size.as_deref().map(parse_size) {
         Some(Some(s)) => Some(s),
         Some(None) => anyhow::bail!(
@@ -115,6 +177,11 @@ pub fn run_station(
     };
     let explicit_port = port.is_some();
     let (mut cfg, station, save_to, mut foxglove) = config_all(port, config_path)?;
+    apply_models(
+        &mut cfg,
+        settings.model.as_ref(),
+        settings.vehicle.as_deref(),
+    )?;
     if !explicit_port && !station.serial_port.trim().is_empty() {
         cfg.connection = Connection::Serial(station.serial_port.trim().to_string());
     }

@@ -63,6 +63,15 @@ struct Cli {
     /// the first capture device found, else none. Overrides `[video] source`.
     #[arg(long, value_name = "SOURCE")]
     video: Option<String>,
+    /// The autopilot's model: model1, model2, model3 or FILE.toml (a model the lab saved
+    /// with `lab add --save`: feedforward, observer and thrust inversion from it).
+    /// Overrides `[autopilot] model` in the settings file.
+    #[arg(long, value_name = "MODEL|FILE.toml", value_parser = parse_model_id)]
+    model: Option<rov_types::ModelId>,
+    /// The simulated vehicle's dynamics: any model file `--model` accepts (effects
+    /// included), behind the same wire protocol and sensors. Default: model3 as shipped.
+    #[arg(long, value_name = "FILE.toml")]
+    vehicle: Option<std::path::PathBuf>,
     /// Window size, WIDTHxHEIGHT (default 1280x800).
     #[arg(long, value_name = "WxH", hide = true)]
     window_size: Option<String>,
@@ -90,6 +99,11 @@ enum Command {
     Lab(cmd_lab::LabArgs),
 }
 
+/// A model argument, parsed as every model name is ([`rov_types::ModelId`]).
+pub fn parse_model_id(s: &str) -> Result<rov_types::ModelId, String> {
+    s.parse::<rov_types::ModelId>().map_err(|e| e.to_string())
+}
+
 fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
@@ -105,7 +119,11 @@ fn main() -> std::process::ExitCode {
         None => cmd_station::run_station(
             cli.port,
             cli.video,
-            cli.config.as_deref(),
+            cmd_station::StationSources {
+                config: cli.config.as_deref(),
+                model: cli.model,
+                vehicle: cli.vehicle,
+            },
             (!cli.no_record).then_some(cli.recordings),
             cli.screenshot.map(|p| (p, cli.screenshot_after_s)),
             cli.window_size,

@@ -100,7 +100,7 @@ fn hold_options_parse_and_bad_values_fail_clearly() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("model4"));
     let e = String::from_utf8_lossy(&out.stderr);
     assert!(e.contains("model1, model2, model3 or a FILE.toml"), "{e}");
-    // A model file parses as a model but does not (yet) drive hold's feedforward.
+    // A model file drives the autopilot; one that does not exist is refused, named.
     let out = hold(&[
         "--model",
         "learned.toml",
@@ -113,7 +113,7 @@ fn hold_options_parse_and_bad_values_fail_clearly() {
     ]);
     assert!(!out.status.success());
     let e = String::from_utf8_lossy(&out.stderr);
-    assert!(e.contains("learned.toml") && e.contains("--vehicle"), "{e}");
+    assert!(e.contains("reading learned.toml"), "{e}");
     let out = hold(&[
         "--model",
         "model1",

@@ -516,6 +516,13 @@ pub trait VehicleModel: fmt::Debug + Send + Sync {
         )
     }
 
+    /// The model reduced to the heave and yaw axes with its thrust path (dead zones, lags,
+    /// per-sign maps, arms): what a depth and heading autopilot's feedforward and observer
+    /// are built from. `None` (the default) for a model that cannot be reduced this way.
+    fn plant(&self) -> Option<crate::plant::PlantDescription> {
+        None
+    }
+
     /// A boxed copy.
     fn clone_box(&self) -> Box<dyn VehicleModel>;
 

@@ -227,6 +227,10 @@ impl VehicleModel for Model1 {
         true
     }
 
+    fn plant(&self) -> Option<crate::plant::PlantDescription> {
+        Some(crate::plant::PlantDescription::from_model1(&self.params))
+    }
+
     fn clone_box(&self) -> Box<dyn VehicleModel> {
         Box::new(self.clone())
     }

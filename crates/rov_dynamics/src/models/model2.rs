@@ -176,6 +176,10 @@ impl VehicleModel for Model2 {
         true
     }
 
+    fn plant(&self) -> Option<crate::plant::PlantDescription> {
+        Some(crate::plant::PlantDescription::from_model2(&self.params))
+    }
+
     fn clone_box(&self) -> Box<dyn VehicleModel> {
         Box::new(self.clone())
     }

@@ -308,6 +308,10 @@ impl VehicleModel for Model3 {
         }
     }
 
+    fn plant(&self) -> Option<crate::plant::PlantDescription> {
+        Some(crate::plant::PlantDescription::from_model3(self))
+    }
+
     fn clone_box(&self) -> Box<dyn VehicleModel> {
         Box::new(self.clone())
     }

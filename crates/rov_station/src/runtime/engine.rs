@@ -186,7 +186,10 @@ impl Engine {
         shared: Arc<Shared>,
         source: Source,
     ) -> Result<Self, RuntimeError> {
-        let core = StationCore::new(cfg.control, models.clone())?;
+        let mut core = StationCore::new(cfg.control, models.clone())?;
+        if let Some(a) = &cfg.autopilot_model {
+            core.set_plant(&a.label, a.plant.clone())?;
+        }
         let source_label = match &source {
             Source::Serial(p) => format!("serial:{p}"),
             _ => "sim".to_string(),
@@ -313,6 +316,39 @@ impl Engine {
         };
         self.pipeline.event(now_us as f64 * 1e-6, &r);
         self.record(|t| RecordItem::Event(t, r), now_us);
+    }
+
+    /// [`RuntimeCommand::AutopilotModel`].
+    fn autopilot_model(
+        &mut self,
+        link: &Link,
+        model: Option<Box<crate::hold::AutopilotModel>>,
+        confirmed: bool,
+        now_us: u64,
+    ) {
+        if link.failsafe().is_armed() && !confirmed {
+            self.refuse(
+                now_us,
+                "changing the autopilot model",
+                "the vehicle is armed (disarm first, or confirm)".into(),
+            );
+            return;
+        }
+        let result = match &model {
+            Some(m) => self.core.set_plant(&m.label, m.plant.clone()),
+            None => {
+                let choice = self.cfg.control.feedforward_model;
+                self.core
+                    .controller_command(rov_control::ModeCommand::SelectModel(choice))
+            }
+        };
+        match result {
+            Ok(()) => {
+                let text = format!("autopilot model: {}", self.core.controller().model_label());
+                self.event(now_us, "autopilot", Severity::Info, text);
+            }
+            Err(e) => self.refuse(now_us, "the autopilot model", e.to_string()),
+        }
     }
 
     fn refuse(&mut self, now_us: u64, what: &str, why: String) {
@@ -484,6 +520,9 @@ impl Engine {
                 self.cfg.pad_map = m;
             }
             RuntimeCommand::PadInput(st) => self.virtual_pad = Some((st, now_us)),
+            RuntimeCommand::AutopilotModel { model, confirmed } => {
+                self.autopilot_model(link, model, confirmed, now_us);
+            }
             RuntimeCommand::InjectStall(d) => return Followup::Stall(d),
             RuntimeCommand::Shutdown => return Followup::Shutdown,
         }
@@ -1061,7 +1100,7 @@ impl Engine {
             // allocation per tick).
             feedforward_model: {
                 let name = if ctl.feedforward_enabled() {
-                    ctl.model().name()
+                    ctl.model_label()
                 } else {
                     ""
                 };
@@ -1201,7 +1240,17 @@ impl Engine {
             heading_deg: snap.heading_estimate_deg.or(snap.heading_deg),
             r_rad_s: r,
         };
-        let model = self.models.get(model_choice);
+        // The autopilot's own model predicts (a custom plant when one is set).
+        let model = match self.core.controller().custom_plant() {
+            Some(p) => p,
+            None => self.models.get(model_choice),
+        };
+        if self.pipeline.view.model_label != self.core.controller().model_label() {
+            self.core
+                .controller()
+                .model_label()
+                .clone_into(&mut self.pipeline.view.model_label);
+        }
         self.pipeline.view.prediction = self.predictor.step(
             model,
             t_s,

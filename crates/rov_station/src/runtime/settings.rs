@@ -29,6 +29,43 @@ pub struct PilotSettings {
     pub video: crate::runtime::video::VideoSettings,
     /// `[foxglove]`.
     pub foxglove: FoxgloveSettings,
+    /// `[autopilot]`.
+    pub autopilot: AutopilotSettings,
+}
+
+/// The `[autopilot]` table: which model the autopilot uses.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Default)]
+pub struct AutopilotSettings {
+    /// `model = "model1" | "model2" | "model3" | "FILE.toml"`; `None` when absent (the
+    /// `[control]` table's `feedforward_model` then chooses). A relative file is taken
+    /// from the settings file's folder (by the caller, which loads it).
+    #[serde(skip)]
+    pub model: Option<rov_types::ModelId>,
+}
+
+impl AutopilotSettings {
+    /// Reads `[autopilot]` (every key optional; unknown keys refused).
+    ///
+    /// # Errors
+    /// [`ConfigError`] naming the file, key, value and allowed values.
+    pub fn from_param_file(f: &ParamFile) -> Result<Self, ConfigError> {
+        let model = if f.has("autopilot.model") {
+            let s = f.string("autopilot.model")?;
+            Some(
+                s.parse::<rov_types::ModelId>()
+                    .map_err(|_| ConfigError::OutOfRange {
+                        file: f.file().to_string(),
+                        key: "autopilot.model".into(),
+                        value: format!("{s:?}"),
+                        allowed: "model1, model2, model3 or a model file FILE.toml".into(),
+                    })?,
+            )
+        } else {
+            None
+        };
+        f.reject_unknown("autopilot")?;
+        Ok(Self { model })
+    }
 }
 
 /// The `[foxglove]` table: the live Foxglove server (off by default).
@@ -221,6 +258,7 @@ pub fn load_all(text: &str, label: &str) -> Result<PilotSettings, ConfigError> {
         shaping: StickShaping::from_param_file(&f)?,
         video: crate::runtime::video::VideoSettings::from_param_file(&f)?,
         foxglove: FoxgloveSettings::from_param_file(&f)?,
+        autopilot: AutopilotSettings::from_param_file(&f)?,
     };
     f.reject_unknown("gamepad")?;
     Ok(p)

@@ -62,16 +62,23 @@ impl SimApp for App {
     }
 }
 
-/// The simulated Pro 4 of a configuration (model 3, its seed and link faults), for the
-/// live runtime and the virtual station alike.
+/// The simulated Pro 4 of a configuration (model 3, or the model of `sim_vehicle`; its
+/// seed and link faults), for the live runtime and the virtual station alike.
 pub(crate) fn sim_vehicle(cfg: &RuntimeConfig) -> Result<Vehicle, rov_vehicle::VehicleError> {
-    Vehicle::with_model3(
-        VehicleConfig {
-            faults: cfg.sim_faults.clone(),
-            ..VehicleConfig::default()
-        },
-        cfg.sim_seed,
-    )
+    let vcfg = VehicleConfig {
+        faults: cfg.sim_faults.clone(),
+        ..VehicleConfig::default()
+    };
+    match &cfg.sim_vehicle {
+        Some(v) => {
+            let sim = rov_sim::Simulator::new(
+                rov_sim::SimConfig::with_model(v.model.clone()),
+                cfg.sim_seed,
+            )?;
+            Ok(Vehicle::new(vcfg, sim))
+        }
+        None => Vehicle::with_model3(vcfg, cfg.sim_seed),
+    }
 }
 
 /// The live engine on virtual time; see the module docs.

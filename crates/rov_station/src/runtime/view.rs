@@ -292,6 +292,9 @@ pub struct StationView {
     /// Feedforward model.
     #[serde(skip)]
     pub model: ModelChoice,
+    /// The model the autopilot uses, as shown to the pilot: `model1`..`model3` or the
+    /// file a custom model came from.
+    pub model_label: String,
     /// Feedforward on.
     pub feedforward: bool,
     /// Model prediction now (depth m, heading deg).
@@ -526,11 +529,16 @@ impl Pipeline {
         self.view.heading.setpoint = r.heading_setpoint_deg.and_then(finite);
         self.view.snapshot.depth_setpoint_m = self.view.depth.setpoint;
         self.view.snapshot.heading_setpoint_deg = self.view.heading.setpoint;
-        if let Some(m) = ModelChoice::from_name(&r.feedforward_model) {
-            self.view.model = m;
-            self.view.feedforward = true;
-        } else {
+        if r.feedforward_model.is_empty() {
             self.view.feedforward = false;
+        } else {
+            if let Some(m) = ModelChoice::from_name(&r.feedforward_model) {
+                self.view.model = m;
+            }
+            self.view.feedforward = true;
+            if self.view.model_label != r.feedforward_model {
+                self.view.model_label.clone_from(&r.feedforward_model);
+            }
         }
     }
 
@@ -780,6 +788,7 @@ crate::clone_fields!(StationView {
     depth,
     heading,
     model,
+    model_label,
     feedforward,
     prediction,
     link,
