@@ -68,7 +68,10 @@ use crate::params::Param;
 use crate::sim::Prediction;
 
 mod null;
-pub use null::{KnownJacobian, NullRefit, PRO4_COMMAND_RESOLUTION_PCT, input_spread, null_refit};
+pub use null::{
+    KnownJacobian, NullRefit, PRO4_COMMAND_RESOLUTION_PCT, input_spread, null_refit,
+    null_refit_from,
+};
 
 /// Family-wise significance level of the level test.
 pub const ALPHA: f64 = 0.01;

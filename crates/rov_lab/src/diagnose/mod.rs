@@ -344,6 +344,7 @@ pub fn diagnose(
         &base_eval,
         &cal.scales,
         known,
+        None,
         opts.threads,
     )?;
     let mut final_tested = if accepted.is_empty() {
@@ -357,6 +358,7 @@ pub fn diagnose(
             &g.current_eval,
             g.scales.of(View::Shooting(SHOOTING_WINDOW_S)),
             None,
+            base_tested.null.as_deref(),
             opts.threads,
         )?
     };
@@ -503,6 +505,7 @@ pub fn diagnose(
             &g.current_eval,
             g.scales.of(View::Shooting(SHOOTING_WINDOW_S)),
             None,
+            base_tested.null.as_deref(),
             opts.threads,
         )?;
     }
@@ -671,6 +674,8 @@ struct Tested {
     eval: crate::evaluate::Evaluation,
     /// Parameters the H₀ refit moved (key, from, to).
     moved: Vec<(String, f64, f64)>,
+    /// The H₀ refit, when one was needed.
+    null: Option<Box<verdict::NullRefit>>,
 }
 
 /// The verdict's tests of `model` (free parameters `free`, held-out evaluation `eval`):
@@ -688,6 +693,7 @@ fn tested(
     eval: &crate::evaluate::Evaluation,
     scales: &crate::calibrate::ChannelScales,
     known: Option<verdict::KnownJacobian<'_>>,
+    prior: Option<&verdict::NullRefit>,
     threads: usize,
 ) -> Result<Tested, LabError> {
     let zero = [0.0; crate::data::N_CHANNELS];
@@ -698,9 +704,13 @@ fn tested(
             model: model.clone(),
             eval: eval.clone(),
             moved: Vec::new(),
+            null: None,
         });
     }
-    let null = verdict::null_refit(model, free, train, val, scales, known, threads)?;
+    let null = match prior.map(|p| verdict::null_refit_from(p, model, train, val)) {
+        Some(Ok(n)) => n,
+        _ => verdict::null_refit(model, free, train, val, scales, known, threads)?,
+    };
     let input = verdict::input_spread(&null.model, val, &null.eval.shooting);
     let mut spread = null.spread;
     for (s, u) in spread.iter_mut().zip(input) {
@@ -715,13 +725,15 @@ fn tested(
             model: model.clone(),
             eval: eval.clone(),
             moved: Vec::new(),
+            null: Some(Box::new(null)),
         }
     } else {
         Tested {
             tests: refit,
-            model: null.model,
-            eval: null.eval,
-            moved: null.moved,
+            model: null.model.clone(),
+            eval: null.eval.clone(),
+            moved: null.moved.clone(),
+            null: Some(Box::new(null)),
         }
     })
 }

@@ -47,6 +47,13 @@ pub struct NullRefit {
     /// Parameters the refit moved by at least half their prior σ: (key, from, to), display
     /// units.
     pub moved: Vec<(String, f64, f64)>,
+    /// The refitted parameters.
+    pub params: Vec<Param>,
+    /// The training Jacobian of the multiple-shooting residual to them (weights
+    /// `scales`), at the model the refit started from.
+    pub jacobian: DMatrix<f64>,
+    /// The channel scales of that Jacobian's weights.
+    pub scales: ChannelScales,
 }
 
 /// A training Jacobian already at hand: its columns for the leading `free` parameters, in
@@ -117,10 +124,90 @@ pub fn null_refit(
             j.set_column(known_cols + i, &DVector::from_column_slice(c));
         }
     }
-    let n_eff = crate::calibrate::effective_n(&r0, train.first().map_or(1, |r| r.len()));
+    let (refit, moved, cov) = map_step(model, &all, &j, &r0, &obj, train, scales)?;
+    let eval = evaluate(&refit, val)?;
+    let spread = match &cov {
+        Some(cov) => prediction_spread(&refit, &all, val, &eval.shooting, cov, threads),
+        None => [0.0; N_CHANNELS],
+    };
+    Ok(NullRefit {
+        model: refit,
+        eval,
+        spread,
+        moved,
+        params: all,
+        jacobian: j,
+        scales: *scales,
+    })
+}
+
+/// [`null_refit`] of a model that extends the one `prior` was fitted to (the calibrated
+/// base with accepted findings), reusing its linearisation: the same parameters refitted
+/// from this model's own training residual with `prior`'s Jacobian (adding an effect
+/// hardly changes the base parameters' sensitivities; the findings' own parameters were
+/// fitted by their confirmation), and `prior`'s posterior prediction spread. One
+/// training simulation and the held-out evaluation instead of a Jacobian.
+pub fn null_refit_from(
+    prior: &NullRefit,
+    model: &LabModel,
+    train: &[Run],
+    val: &[Run],
+) -> Result<NullRefit, LabError> {
+    let all = prior.params.clone();
+    let obj = Objective::scaled(
+        model,
+        train,
+        View::Shooting(SHOOTING_WINDOW_S),
+        &prior.scales,
+    );
+    let r0 = obj.residuals(model)?;
+    if all.iter().any(|p| model.get(*p).is_none()) || r0.len() != prior.jacobian.nrows() {
+        return Err(LabError::Model {
+            detail: "the H₀ linearisation does not fit this model".into(),
+        });
+    }
+    let (refit, moved, _) = map_step(
+        model,
+        &all,
+        &prior.jacobian,
+        &r0,
+        &obj,
+        train,
+        &prior.scales,
+    )?;
+    let eval = evaluate(&refit, val)?;
+    Ok(NullRefit {
+        model: refit,
+        eval,
+        spread: prior.spread,
+        moved,
+        params: all,
+        jacobian: prior.jacobian.clone(),
+        scales: prior.scales,
+    })
+}
+
+/// The MAP step of [`null_refit`] from `model` with the Jacobian `j` of the residual `r0`
+/// (weights of `obj`), the step halved until the penalised cost falls (at most twice):
+/// the refitted model, the parameters it moved by at least half their prior σ, and the
+/// posterior covariance in noise weights.
+#[allow(clippy::type_complexity)]
+fn map_step(
+    model: &LabModel,
+    all: &[Param],
+    j: &DMatrix<f64>,
+    r0: &[f64],
+    obj: &Objective<'_>,
+    train: &[Run],
+    scales: &ChannelScales,
+) -> Result<(LabModel, Vec<(String, f64, f64)>, Option<DMatrix<f64>>), LabError> {
+    let n = all.len();
+    let rows = r0.len();
+    let shooting = View::Shooting(SHOOTING_WINDOW_S);
+    let n_eff = crate::calibrate::effective_n(r0, train.first().map_or(1, |r| r.len()));
     let infl = (rows as f64 / n_eff.max(1.0)).max(1.0);
-    let bounds = bounds_for(model, &all, true);
-    let theta0 = model.values(&all);
+    let bounds = bounds_for(model, all, true);
+    let theta0 = model.values(all);
     let lambda: Vec<f64> = bounds
         .iter()
         .map(|b| match b.prior {
@@ -140,9 +227,9 @@ pub fn null_refit(
         }
     };
     // The MAP step in the diagnosis' weights.
-    let mut a = (j.transpose() * &j) / infl;
+    let mut a = (j.transpose() * j) / infl;
     ridge(&mut a);
-    let r0v = DVector::from_column_slice(&r0);
+    let r0v = DVector::from_column_slice(r0);
     let mut g = (j.transpose() * &r0v) / infl;
     for i in 0..n {
         g[i] += lambda[i] * (theta0[i] - mu[i]);
@@ -157,7 +244,7 @@ pub fn null_refit(
     };
     let mut refit = model.clone();
     if let Some(step) = a.clone().cholesky().map(|c| c.solve(&(-&g))) {
-        let p0 = penalised(&r0, &theta0);
+        let p0 = penalised(r0, &theta0);
         let mut frac = 1.0;
         for _ in 0..3 {
             let th: Vec<f64> = theta0
@@ -166,7 +253,7 @@ pub fn null_refit(
                 .zip(&bounds)
                 .map(|((t, d), b)| (t + frac * d).clamp(b.lo, b.hi))
                 .collect();
-            if let Ok(m) = model.with(&all, &th)
+            if let Ok(m) = model.with(all, &th)
                 && let Ok(r) = obj.residuals(&m)
                 && r.len() == rows
                 && penalised(&r, &th) < p0
@@ -177,10 +264,9 @@ pub fn null_refit(
             frac *= 0.5;
         }
     }
-    let eval = evaluate(&refit, val)?;
     // The posterior covariance under H₀: the rows back to noise weights.
     let factors = crate::calibrate::row_factors(model, train, shooting, scales, &NOISE_ONLY);
-    let mut jn = j;
+    let mut jn = j.clone();
     if let Some(f) = factors.as_ref().filter(|f| f.len() == rows) {
         for c in 0..n {
             for (x, k) in jn.column_mut(c).iter_mut().zip(f) {
@@ -191,11 +277,7 @@ pub fn null_refit(
     let mut an = (jn.transpose() * &jn) / infl;
     ridge(&mut an);
     let cov = an.try_inverse();
-    let spread = match &cov {
-        Some(cov) => prediction_spread(&refit, &all, val, &eval.shooting, cov, threads),
-        None => [0.0; N_CHANNELS],
-    };
-    let theta1 = refit.values(&all);
+    let theta1 = refit.values(all);
     let moved = all
         .iter()
         .zip(theta0.iter().zip(&theta1))
@@ -204,12 +286,7 @@ pub fn null_refit(
         .filter(|((_, (a, b)), l)| (**b - **a).abs() * l.sqrt() >= 0.5)
         .map(|((p, (a, b)), _)| (p.key(), p.display(*a).0, p.display(*b).0))
         .collect();
-    Ok(NullRefit {
-        model: refit,
-        eval,
-        spread,
-        moved,
-    })
+    Ok((refit, moved, cov))
 }
 
 /// σ_θ per channel: the RMS over the held-out samples of sᵀ C s, s the sensitivities of
