@@ -17,6 +17,45 @@ use crate::sim::Prediction;
 /// 99 % normal quantile.
 pub const Z99: f64 = 2.576;
 
+/// The noise floor that quantisation alone sets on a signal recorded on a lattice: q/√12
+/// for a lattice step q (the variance of a uniform error over one step, the standard
+/// model of a quantiser's error), or 0 when the signal is not on a lattice.
+///
+/// The step is the smallest non-zero change between successive finite samples; the
+/// signal is on that lattice when at least 95 % of its non-zero changes (at least 20 of
+/// them) are whole multiples of it (to 10⁻³ of a step). A held signal read through a
+/// 1 mbar pressure sensor changes by whole centimetre steps or not at all: its third
+/// differences are mostly zero and estimate almost no noise, yet a model can predict it
+/// no better than to within q/√12 (Widrow's quantisation noise).
+pub fn quantisation_floor(v: &[f64]) -> f64 {
+    let big = v
+        .iter()
+        .filter(|x| x.is_finite())
+        .fold(0.0f64, |m, x| m.max(x.abs()));
+    let tiny = 1e-9 * big.max(1e-300);
+    let d: Vec<f64> = v
+        .windows(2)
+        .map(|w| (w[1] - w[0]).abs())
+        .filter(|x| x.is_finite() && *x > tiny)
+        .collect();
+    if d.len() < 20 {
+        return 0.0;
+    }
+    let q = d.iter().copied().fold(f64::INFINITY, f64::min);
+    let on = d
+        .iter()
+        .filter(|x| {
+            let m = *x / q;
+            (m - m.round()).abs() <= 1e-3
+        })
+        .count();
+    if on as f64 >= 0.95 * d.len() as f64 {
+        q / 12f64.sqrt()
+    } else {
+        0.0
+    }
+}
+
 /// Mean residual in one bin with its 95 % interval.
 #[derive(Debug, Clone, Serialize)]
 pub struct Bin {
@@ -323,4 +362,25 @@ pub fn segment_metrics(
             })
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn quantisation_floor_of_a_lattice_and_of_a_continuous_signal() {
+        // A held depth read in 1.02 cm steps (1 mbar): mostly unchanged, a few steps.
+        let q = 0.0102;
+        let held: Vec<f64> = (0..600)
+            .map(|k| q * (200.0 + ((k as f64 * 0.37).sin() * 1.4).round()))
+            .collect();
+        let f = quantisation_floor(&held);
+        assert!((f - q / 12f64.sqrt()).abs() < 1e-9, "{f}");
+        // A continuous signal is on no lattice.
+        let smooth: Vec<f64> = (0..600).map(|k| 2.0 + (k as f64 * 0.01).sin()).collect();
+        assert_eq!(quantisation_floor(&smooth), 0.0);
+        // Too few changes to tell.
+        assert_eq!(quantisation_floor(&[1.0, 1.0, 2.0, 2.0]), 0.0);
+    }
 }

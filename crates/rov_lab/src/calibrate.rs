@@ -755,36 +755,153 @@ pub fn structural_scales(runs: &[Run], misfit: &ChannelScales) -> ChannelScales 
     out
 }
 
+/// The data's information on each calibrated parameter alone, in units of its documented
+/// prior's (diagonal of the Gauss–Newton information in prior-scaled coordinates, with
+/// the effective sample size; `None` without a Jacobian).
+fn param_information(cal: &Calibration, bounds: &[Bound]) -> Vec<Option<f64>> {
+    let p = cal.params.len();
+    let Some(j) = cal.lm.jacobian.as_ref().filter(|j| j.ncols() == p) else {
+        return vec![None; p];
+    };
+    let dof = (cal.lm.n_res as f64 - p as f64).max(1.0);
+    let s2 = (cal.lm.cost / dof).max(1e-300);
+    let ratio = (cal.n_eff / cal.lm.n_res.max(1) as f64).clamp(0.0, 1.0);
+    (0..p)
+        .map(|i| {
+            let sig = cal
+                .model
+                .prior_of(cal.params[i])
+                .map(|(_, s)| s)
+                .or_else(|| bounds.get(i).map(|b| b.scale * 20.0))?;
+            let c = j.column(i);
+            Some(c.dot(&c) * sig * sig * ratio / s2)
+        })
+        .collect()
+}
+
+/// The measured channels of a body axis (its velocity and the position or angle it
+/// integrates to).
+fn axis_channels(a: Axis) -> &'static [Channel] {
+    match a {
+        Axis::Surge => &[Channel::Surge],
+        Axis::Sway => &[Channel::Sway],
+        Axis::Heave => &[Channel::Heave, Channel::Depth],
+        Axis::Roll => &[Channel::RollRate, Channel::Roll],
+        Axis::Pitch => &[Channel::PitchRate, Channel::Pitch],
+        Axis::Yaw => &[Channel::YawRate, Channel::Heading],
+    }
+}
+
+/// The body axis a base parameter acts on directly (`None` for thrust scales, which act
+/// through the thrusters on several).
+fn own_axis(p: Param) -> Option<Axis> {
+    match p {
+        Param::AddedMass(a) | Param::DragLin(a) | Param::DragQuad(a) => Some(a),
+        Param::CgZ => Some(Axis::Pitch),
+        _ => None,
+    }
+}
+
+/// How much the data excites a body axis.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum AxisExcitation {
+    /// Some measured channel of the axis moves by more than three noise floors (RMS about
+    /// its mean over the pooled runs): the criterion under which the metrics report a
+    /// fit % instead of "low excitation" ([`crate::metrics`]).
+    Excited,
+    /// The axis is measured but barely moves.
+    Low,
+    /// Nothing in the data measures the axis: its parameters act on the data only
+    /// through couplings.
+    Unmeasured,
+}
+
+/// How much the runs excite a body axis.
+pub fn axis_excitation(runs: &[Run], a: Axis) -> AxisExcitation {
+    let mut measured = false;
+    for ch in axis_channels(a) {
+        let i = ch_index(*ch);
+        let (mut n, mut s, mut ss, mut noise2) = (0usize, 0.0, 0.0, 0.0);
+        for r in runs {
+            let Some(y) = r.y[i].as_ref() else { continue };
+            for v in y.iter().filter(|v| v.is_finite()) {
+                n += 1;
+                s += v;
+                ss += v * v;
+                noise2 += r.noise[i] * r.noise[i];
+            }
+        }
+        if n < 2 {
+            continue;
+        }
+        measured = true;
+        let nf = n as f64;
+        let var = (ss - s * s / nf).max(0.0) / nf;
+        if var.sqrt() > 3.0 * (noise2 / nf).sqrt() {
+            return AxisExcitation::Excited;
+        }
+    }
+    if measured {
+        AxisExcitation::Low
+    } else {
+        AxisExcitation::Unmeasured
+    }
+}
+
 /// The calibration's parameters that need saying: those at a bound of their range (a
-/// physical limit, or a plausibility limit that makes the value suspect) and the
-/// directions of the parameter space the data leaves undetermined (eigenvectors of the
-/// Gauss–Newton information matrix in prior-scaled coordinates, with the effective sample
-/// size, whose eigenvalue is below the prior's own information), in words.
-pub fn calibration_notes(cal: &Calibration) -> Vec<String> {
+/// physical limit, or a plausibility limit that makes the value suspect — unless the
+/// data leaves the parameter unidentifiable: its own axis barely moves in `runs`, or the
+/// data's information on it alone is below its documented prior's; then it is said to be
+/// unidentifiable from this data, not evidence of anything) and the directions of the
+/// parameter space the data leaves undetermined (eigenvectors of the Gauss–Newton
+/// information matrix in prior-scaled coordinates, with the effective sample size, whose
+/// eigenvalue is below the prior's own information), in words.
+pub fn calibration_notes(cal: &Calibration, runs: &[Run]) -> Vec<String> {
     let mut out = Vec::new();
     let bounds = bounds_for(&cal.model, &cal.params, true);
+    let info = param_information(cal, &bounds);
     for (i, p) in cal.params.iter().enumerate() {
         let (Some(v), Some(b)) = (cal.model.get(*p), bounds.get(i)) else {
             continue;
         };
         let tol = 1e-6 * (b.hi - b.lo).abs().max(1e-12);
         for (bound, upper) in [(b.lo, false), (b.hi, true)] {
-            if (v - bound).abs() <= tol {
-                let (dv, unit) = p.display(v);
-                out.push(if p.bound_is_physical(upper) {
-                    format!(
-                        "{} = {dv:.4} {unit} ended at its physical {} limit: the data wants it beyond what is possible, a sign of a structural misfit it compensates",
-                        p.key(),
-                        if upper { "upper" } else { "lower" }
-                    )
-                } else {
-                    format!(
-                        "{} = {dv:.4} {unit} ended at the {} bound of its plausible range: implausible, it stands in for something the base lacks",
-                        p.key(),
-                        if upper { "upper" } else { "lower" }
-                    )
-                });
+            if (v - bound).abs() > tol {
+                continue;
             }
+            let (dv, unit) = p.display(v);
+            let side = if upper { "upper" } else { "lower" };
+            let unexcited = own_axis(*p)
+                .map(|a| (a, axis_excitation(runs, a)))
+                .filter(|(_, e)| *e != AxisExcitation::Excited);
+            let weak = info.get(i).copied().flatten().filter(|x| *x < 1.0);
+            out.push(if let Some((a, e)) = unexcited {
+                let why = if e == AxisExcitation::Low {
+                    format!("the {} axis barely moves in this data (low excitation)", a.name())
+                } else {
+                    format!("nothing in this data measures the {} axis", a.name())
+                };
+                format!(
+                    "{} = {dv:.4} {unit} ended at its {side} limit, but {why}: it is unidentifiable from this data, and the value at the limit is not evidence of anything (neither a finding nor a structural misfit); record {} motion to calibrate it",
+                    p.key(),
+                    a.name()
+                )
+            } else if let Some(x) = weak {
+                format!(
+                    "{} = {dv:.4} {unit} ended at its {side} limit, but this data barely determines it (its information is {x:.2} of the documented prior's): it is unidentifiable from this data, and the value at the limit is not evidence of anything",
+                    p.key()
+                )
+            } else if p.bound_is_physical(upper) {
+                format!(
+                    "{} = {dv:.4} {unit} ended at its physical {side} limit: the data wants it beyond what is possible, a sign of a structural misfit it compensates",
+                    p.key()
+                )
+            } else {
+                format!(
+                    "{} = {dv:.4} {unit} ended at the {side} bound of its plausible range: implausible, it stands in for something the base lacks",
+                    p.key()
+                )
+            });
         }
     }
     let Some(j) = cal.lm.jacobian.as_ref() else {

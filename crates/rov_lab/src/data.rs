@@ -482,7 +482,11 @@ impl Run {
         for ch in Channel::ALL {
             let i = ch_index(ch);
             if let Some(v) = &y[i] {
-                noise[i] = noise_estimate(v).unwrap_or(0.0).max(noise_floor_min(ch));
+                // Never below what quantisation alone leaves (q/√12 on a lattice of step q).
+                noise[i] = noise_estimate(v)
+                    .unwrap_or(0.0)
+                    .max(noise_floor_min(ch))
+                    .max(crate::analysis::quantisation_floor(v));
                 let mut s: Vec<f64> = (0..n)
                     .map(|k| {
                         local_quadratic(&t, v, k, 0.3, 0.3)

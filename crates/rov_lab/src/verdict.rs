@@ -5,14 +5,25 @@
 //! For every channel the model predicts and the held-out runs measure, with e the
 //! multiple-shooting residual (spikes excluded) and N its sample count:
 //!
-//! 1. **Expected level.** Under H₀ ("the model is right") e is sensor noise plus the
-//!    prediction error that parameter uncertainty allows: s₀² = σ_n² + σ_θ², where σ_n
-//!    is the channel's noise floor estimated from the data and σ_θ² the mean prediction
-//!    variance from the joint posterior covariance under H₀ of the calibrated base
-//!    parameters and the documented-uncertain ones the calibration keeps fixed
-//!    (Gauss–Newton on the training runs with residuals at the noise floor, inflated by
-//!    N/N_eff, plus every parameter's documented prior; [`param_spread`]): the
-//!    uncertainty the parameters keep once the data has spoken, not their bare priors.
+//! 0. **H₀ fitted.** The model under test is first refitted under H₀ ([`null`]): its
+//!    free parameters and the documented-uncertain ones the calibration keeps fixed
+//!    move to their maximum a posteriori point on the training runs (a Gauss–Newton step
+//!    with the documented priors), so a vehicle whose fixed parameters differ from the
+//!    base file's within their documented σ is not mistaken for a misfit. The steps
+//!    below test that refit (or the model as it is, when that already passes).
+//! 1. **Expected level.** Under H₀ e is sensor noise plus the prediction error that
+//!    parameter uncertainty and the inputs' resolution allow: s₀² = σ_n² + σ_θ² + σ_u²,
+//!    where σ_n is the channel's noise floor estimated from the data (never below the
+//!    quantisation floor q/√12 of a signal recorded on a lattice of step q,
+//!    [`crate::analysis::quantisation_floor`]); σ_θ² the mean prediction variance from
+//!    the joint posterior covariance under H₀ of the free and the documented-uncertain
+//!    fixed parameters (the same Gauss–Newton linearisation with residuals at the noise
+//!    floor, inflated by N/N_eff, plus every parameter's documented prior): the
+//!    uncertainty the parameters keep once the data has spoken, not their bare priors;
+//!    and σ_u the spread the recorded commands' own uncertainty leaves ([`input_spread`]:
+//!    their resolution — a Pro 4 runs whole percent, a station log records the
+//!    autopilot's unrounded demand — and their timing, aligned with the measurements
+//!    only to within one sample).
 //! 2. **Level test.** With N_eff the effective sample size of e (Bartlett: N / (1 + 2 Σ
 //!    ρ_k) over the lags before the autocorrelation first turns negative), N_eff·MS/s₀²
 //!    is χ²(N_eff) under H₀. The level is consistent when MS/s₀² ≤ χ²_{1−α/m}(N_eff)/N_eff
@@ -25,6 +36,11 @@
 //! 4. **Distance.** Whatever the test above says, a channel whose RMSE exceeds
 //!    [`MAX_RATIO`] noise floors is inconsistent: parameter uncertainty may excuse a
 //!    modest excess, never a model that far from its noise floor.
+//! 5. **Floor.** Within that distance, whatever steps 2 and 3 say, a channel whose RMSE is within
+//!    [`FLOOR_TOLERANCE`] of its expected level s₀ is consistent: σ_n is itself an
+//!    estimate (third differences assume white noise; a sensor's own filtering or a
+//!    simulation's discretisation bias it by a few per cent), and a residual at the
+//!    level of the noise leaves nothing any model could still explain.
 //!
 //! The verdict is `adequate` when every channel of the calibrated base is consistent and
 //! no finding was needed, `explained` when the accepted findings make every channel
@@ -39,19 +55,23 @@
 
 use std::collections::BTreeMap;
 
-use nalgebra::DMatrix;
 use rov_dynamics::models::Channel;
 use serde::Serialize;
 
-use crate::LabError;
 use crate::analysis::{autocorrelation, cross_correlation};
-use crate::calibrate::{Calibration, Objective, SHOOTING_WINDOW_S, View, bounds_for};
+use crate::calibrate::bounds_for;
 use crate::data::{N_CHANNELS, Run, ch_index, ch_name, ch_unit};
 use crate::evaluate::Evaluation;
 use crate::metrics::residual;
 use crate::model::LabModel;
 use crate::params::Param;
-use crate::sim::{Prediction, simulate_run};
+use crate::sim::Prediction;
+
+mod null;
+pub use null::{
+    KnownJacobian, NullRefit, PRO4_COMMAND_RESOLUTION_PCT, input_spread, null_refit,
+    null_refit_from,
+};
 
 /// Family-wise significance level of the level test.
 pub const ALPHA: f64 = 0.01;
@@ -61,6 +81,9 @@ pub const WHITE_FRACTION: f64 = 0.05;
 /// whatever the parameter spread allows: a model that far from its noise floor is not
 /// adequate (RULES: "never adequate while a channel is far from its noise floor").
 pub const MAX_RATIO: f64 = 3.0;
+/// A channel whose RMSE is at most this factor above its expected level s₀ is
+/// consistent (module documentation, step 5).
+pub const FLOOR_TOLERANCE: f64 = 1.1;
 
 /// The verdict.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -116,7 +139,8 @@ pub struct ChannelTest {
     pub rmse: f64,
     /// Noise floor σ_n.
     pub noise: f64,
-    /// Prediction spread from parameter uncertainty σ_θ.
+    /// Prediction spread the test allows besides the noise: √(σ_θ² + σ_u²), parameter
+    /// uncertainty and the commands' resolution.
     pub param_spread: f64,
     /// RMSE / σ_n.
     pub ratio: f64,
@@ -263,172 +287,6 @@ pub(crate) fn fixed_uncertain(model: &LabModel, free: &[Param]) -> Vec<Param> {
     }
     out
 }
-
-/// Per-run, per-channel sensitivity of the held-out multiple-shooting prediction to a
-/// parameter, by a forward difference of `step`.
-fn val_sensitivity(
-    model: &LabModel,
-    val: &[Run],
-    base: &[Prediction],
-    p: Param,
-    step: f64,
-) -> Option<PerRunChannels> {
-    let v0 = model.get(p)?;
-    let m = model.with(&[p], &[v0 + step]).ok()?;
-    let mut out = Vec::with_capacity(val.len());
-    for (run, b) in val.iter().zip(base) {
-        let pr = simulate_run(&m, run, &View::Shooting(SHOOTING_WINDOW_S).resets(run)).ok()?;
-        let mut per: [Option<Vec<f64>>; N_CHANNELS] = Default::default();
-        for ch in Channel::ALL {
-            if let (Some(a), Some(c)) = (pr.channel(ch), b.channel(ch)) {
-                per[ch_index(ch)] = Some(
-                    a.iter()
-                        .zip(c)
-                        .map(|(x, y)| residual(ch, *y, *x) / step)
-                        .collect(),
-                );
-            }
-        }
-        out.push(per);
-    }
-    Some(out)
-}
-
-/// σ_θ per channel (index as [`Channel::ALL`]): the RMS held-out prediction spread from
-/// parameter uncertainty (module documentation, step 1), for the calibrated base `cal`
-/// trained on `train`, predicting `val` (shooting predictions `pred`).
-pub fn param_spread(
-    cal: &Calibration,
-    train: &[Run],
-    val: &[Run],
-    pred: &[Prediction],
-) -> Result<[f64; N_CHANNELS], LabError> {
-    let model = &cal.model;
-    let free = &cal.params;
-    let fixed = fixed_uncertain(model, free);
-    let np = free.len();
-    let nf = fixed.len();
-    let all: Vec<Param> = free.iter().chain(&fixed).copied().collect();
-    let n = np + nf;
-    let shooting = View::Shooting(SHOOTING_WINDOW_S);
-    // Joint posterior covariance under H₀ of the calibrated parameters and the
-    // documented-uncertain ones the calibration keeps fixed: the training Jacobian with
-    // residuals at the noise floor (the calibration's rows taken from its weights back to
-    // noise weights; the fixed parameters' columns by forward differences), inflated by
-    // N/N_eff for correlated residuals, plus every parameter's documented prior. It is
-    // the prediction uncertainty that the parameters' uncertainty leaves once the data
-    // has spoken. Neither the misfit's own variance (a structural misfit would widen the
-    // spread that is then allowed to excuse it) nor the fixed parameters' bare priors (a
-    // misfit that refitting them would remove is a misfit of this model, reported).
-    let cov: Option<DMatrix<f64>> = cal.lm.jacobian.as_ref().and_then(|jp| {
-        let factors = crate::calibrate::row_factors(
-            model,
-            train,
-            shooting,
-            &cal.scales,
-            &crate::calibrate::NOISE_ONLY,
-        );
-        let rows = jp.nrows();
-        let factor = |r: usize| -> f64 {
-            factors
-                .as_ref()
-                .filter(|f| f.len() == rows)
-                .and_then(|f| f.get(r))
-                .copied()
-                .unwrap_or(1.0)
-        };
-        let mut j = DMatrix::zeros(rows, n);
-        for c in 0..np.min(jp.ncols()) {
-            for r in 0..rows {
-                j[(r, c)] = jp[(r, c)] * factor(r);
-            }
-        }
-        if nf > 0 {
-            let obj = Objective::new(model, train, shooting);
-            let r0 = obj.residuals(model).ok()?;
-            if r0.len() == rows {
-                for (c, p) in fixed.iter().enumerate() {
-                    let step = p.meta().scale;
-                    let Some(v0) = model.get(*p) else { continue };
-                    let Ok(m) = model.with(&[*p], &[v0 + step]) else {
-                        continue;
-                    };
-                    let Ok(r) = obj.residuals(&m) else { continue };
-                    if r.len() == rows {
-                        for (k, (a, b)) in r.iter().zip(&r0).enumerate() {
-                            j[(k, np + c)] = (a - b) / step;
-                        }
-                    }
-                }
-            }
-        }
-        let infl = (cal.lm.n_res as f64 / cal.n_eff.max(1.0)).max(1.0);
-        let mut a = (j.transpose() * &j) / infl;
-        let maxd = (0..n).map(|i| a[(i, i)]).fold(0.0f64, f64::max).max(1e-300);
-        for (i, q) in all.iter().enumerate() {
-            a[(i, i)] += 1e-9 * maxd;
-            if let Some((_, sd)) = model.prior_of(*q)
-                && sd > 0.0
-            {
-                a[(i, i)] += 1.0 / (sd * sd);
-            }
-        }
-        a.try_inverse()
-    });
-    let sens: Vec<Option<PerRunChannels>> = all
-        .iter()
-        .map(|p| val_sensitivity(model, val, pred, *p, p.meta().scale))
-        .collect();
-    let mut var = [0.0; N_CHANNELS];
-    let mut cnt = [0usize; N_CHANNELS];
-    for (ri, run) in val.iter().enumerate() {
-        for ch in Channel::ALL {
-            let ci = ch_index(ch);
-            if pred.get(ri).and_then(|p| p.channel(ch)).is_none() || !run.has(ch) {
-                continue;
-            }
-            for k in 0..run.len() {
-                let s: Vec<f64> = sens
-                    .iter()
-                    .map(|s| {
-                        s.as_ref()
-                            .and_then(|v| v.get(ri))
-                            .and_then(|per| per[ci].as_ref())
-                            .and_then(|x| x.get(k))
-                            .copied()
-                            .filter(|x| x.is_finite())
-                            .unwrap_or(0.0)
-                    })
-                    .collect();
-                let mut v = 0.0;
-                if let Some(c) = &cov
-                    && c.nrows() == n
-                {
-                    for a in 0..n {
-                        if s[a] == 0.0 {
-                            continue;
-                        }
-                        for b in 0..n {
-                            v += s[a] * c[(a, b)] * s[b];
-                        }
-                    }
-                }
-                var[ci] += v.max(0.0);
-                cnt[ci] += 1;
-            }
-        }
-    }
-    let mut out = [0.0; N_CHANNELS];
-    for i in 0..N_CHANNELS {
-        if cnt[i] > 0 {
-            out[i] = (var[i] / cnt[i] as f64).sqrt();
-        }
-    }
-    Ok(out)
-}
-
-/// Per held-out run, per channel: a sensitivity or residual series.
-type PerRunChannels = Vec<[Option<Vec<f64>>; N_CHANNELS]>;
 
 /// A named signal over the held-out samples (per run).
 struct Signal {
@@ -832,7 +690,9 @@ pub fn test_channels(
         let corr = correlates(&e, &sigs, dt, max_lag);
         let white = outside <= WHITE_FRACTION;
         let ratio = ms.sqrt() / sigma_n;
-        let consistent = ratio <= MAX_RATIO && (level <= crit || (white && corr.is_empty()));
+        let at_floor = ms.sqrt() <= FLOOR_TOLERANCE * s0_2.sqrt();
+        let consistent =
+            ratio <= MAX_RATIO && (at_floor || level <= crit || (white && corr.is_empty()));
         out.push(ChannelTest {
             channel: ch_name(ch).to_string(),
             rmse: ms.sqrt(),

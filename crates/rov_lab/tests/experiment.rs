@@ -727,7 +727,7 @@ fn exp_calibrate_iters() {
                 f.key, f.value, f.std, f.initial, f.at_bound
             );
         }
-        for n in rov_lab::calibrate::calibration_notes(&cal) {
+        for n in rov_lab::calibrate::calibration_notes(&cal, std::slice::from_ref(&tr)) {
             println!("  note: {n}");
         }
     }

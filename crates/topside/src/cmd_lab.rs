@@ -38,10 +38,14 @@ use rov_types::model_id::ModelId;
 const VERDICT_HELP: &str = "\
 Verdict of `lab diagnose` (\"verdict\" in --json): adequate | explained | unexplained.
 For every channel the model predicts and the held-out runs measure, the multiple-shooting
-residual e (spikes excluded) is tested against H0 \"the model is right\":
-  1. Expected level s0^2 = sigma_n^2 + sigma_theta^2: the channel's noise floor plus the
-     prediction variance the parameter uncertainty allows (posterior of the calibrated
-     parameters and the documented priors of the fixed ones).
+residual e (spikes excluded) is tested against H0 \"the model is right up to its
+parameters' documented uncertainty\":
+  0. H0 fitted first: the free parameters and the documented-uncertain fixed ones are
+     refitted to their maximum a posteriori point on the training runs (one Gauss-Newton
+     step with the documented priors); the steps below test that refit.
+  1. Expected level s0^2 = sigma_n^2 + sigma_theta^2: the channel's noise floor (never
+     below q/sqrt(12) for a signal recorded on a lattice of step q) plus the prediction
+     variance the parameter uncertainty allows (posterior of the same parameters).
   2. Level test: N_eff*MS/s0^2 ~ chi^2(N_eff), N_eff the Bartlett effective sample size;
      consistent when MS/s0^2 <= chi^2_{1-a/m}(N_eff)/N_eff, a = 0.01 Bonferroni over the m
      tested channels.
@@ -49,6 +53,8 @@ residual e (spikes excluded) is tested against H0 \"the model is right\":
      white (<= 5 % of autocorrelation lags outside the 99 % band) and correlates with no
      input or state (cross-correlation against the Bartlett bound).
   4. Distance: an RMSE above 3 noise floors is never consistent.
+  5. Floor: within that, an RMSE at most 1.1 s0 is consistent (the noise floor is itself
+     an estimate; nothing is left for a model to explain).
 adequate = every channel of the calibrated base consistent, no finding needed;
 explained = the accepted findings (catalog effects, discovered terms) make every channel
 consistent; unexplained = some channel still is not: the \"unexplained\" array gives its

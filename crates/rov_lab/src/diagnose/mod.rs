@@ -65,6 +65,7 @@ use explanations::*;
 use greedy::Greedy;
 use judging::*;
 pub use report::*;
+pub(crate) use screening::par_map;
 use screening::*;
 use signatures::*;
 
@@ -85,11 +86,11 @@ fn home_channels(e: EffectId) -> Vec<Channel> {
 pub const MIN_REDUCTION: f64 = 0.15;
 /// A channel counts only if its calibrated held-out RMSE is this many noise floors.
 pub const NOISE_FACTOR: f64 = 1.3;
+/// A worsened channel is tolerated when its noise-normalised loss is below this fraction
+/// of the noise-normalised gain summed over channels (reported as a conflict).
+pub const WORSE_FRACTION_OF_GAIN: f64 = 0.2;
 /// Largest tolerated worsening of another channel (fraction).
 pub const MAX_WORSE: f64 = 0.05;
-/// A worsened channel is tolerated when its noise-normalised loss is below this fraction
-/// of the noise-normalised gain summed over channels.
-pub const WORSE_FRACTION_OF_GAIN: f64 = 0.2;
 /// A worsened channel whose held-out prediction moved by less than this fraction of its
 /// noise floor (RMS) is within noise (see [`judge`]).
 pub const WORSE_NOISE_FRACTION: f64 = 0.5;
@@ -329,25 +330,44 @@ pub fn diagnose(
             break;
         }
     }
-    // The verdict on the catalog's result; the term search when it is not enough.
-    let mut spread = [0.0; crate::data::N_CHANNELS];
-    let base_tests0 = verdict::test_channels(&calibrated, val, &base_eval, &spread);
-    let mut final_tests0 = verdict::test_channels(&g.current, val, &g.current_eval, &spread);
-    if !verdict::all_consistent(&base_tests0) || !verdict::all_consistent(&final_tests0) {
-        spread = verdict::param_spread(&cal, train, val, &base_eval.shooting)?;
-        final_tests0 = verdict::test_channels(&g.current, val, &g.current_eval, &spread);
-    }
-    let base_tests = if spread.iter().any(|s| *s > 0.0) {
-        verdict::test_channels(&calibrated, val, &base_eval, &spread)
+    // The verdict on the catalog's result (H₀ fitted first: `crate::verdict`); the term
+    // search when it is not enough.
+    let known = cal.lm.jacobian.as_ref().map(|j| verdict::KnownJacobian {
+        columns: j,
+        residual: &cal.lm.residuals,
+    });
+    let base_tested = tested(
+        &calibrated,
+        &cal.params,
+        train,
+        val,
+        &base_eval,
+        &cal.scales,
+        known,
+        None,
+        opts.threads,
+    )?;
+    let mut final_tested = if accepted.is_empty() {
+        base_tested.clone()
     } else {
-        base_tests0
+        tested(
+            &g.current,
+            &g.current_free,
+            train,
+            val,
+            &g.current_eval,
+            g.scales.of(View::Shooting(SHOOTING_WINDOW_S)),
+            None,
+            base_tested.null.as_deref(),
+            opts.threads,
+        )?
     };
-    let mut final_tests = final_tests0;
+    let base_tests = base_tested.tests.clone();
     let mut accepted_terms: Vec<crate::terms::Term> = Vec::new();
     let mut search_notes: Vec<String> = Vec::new();
     let names = g.current.command_names();
     for round in 1..=opts.max_terms {
-        if verdict::all_consistent(&final_tests) {
+        if verdict::all_consistent(&final_tested.tests) {
             break;
         }
         let catalog: Vec<(EffectId, Vec<Param>)> = remaining
@@ -477,7 +497,17 @@ pub fn diagnose(
         accepted_terms.push(t);
         g.accept(&best)?;
         error_fall.push((format!("+ {}", t.id(&names)), rmse_map(&g.current_eval)));
-        final_tests = verdict::test_channels(&g.current, val, &g.current_eval, &spread);
+        final_tested = tested(
+            &g.current,
+            &g.current_free,
+            train,
+            val,
+            &g.current_eval,
+            g.scales.of(View::Shooting(SHOOTING_WINDOW_S)),
+            None,
+            base_tested.null.as_deref(),
+            opts.threads,
+        )?;
     }
     // Remaining evaluated findings, best first.
     let mut rest: Vec<Finding> = latest.into_values().collect();
@@ -528,6 +558,7 @@ pub fn diagnose(
             not_predicted.push(ch_name(ch).to_string());
         }
     }
+    let final_tests = final_tested.tests.clone();
     let consistent = verdict::all_consistent(&final_tests);
     let any_finding = !accepted.is_empty() || !accepted_terms.is_empty();
     let verdict = match (consistent, any_finding) {
@@ -535,11 +566,30 @@ pub fn diagnose(
         (true, true) => Verdict::Explained,
         (false, _) => Verdict::Unexplained,
     };
-    let unexplained = verdict::unexplained(&g.current, val, &g.current_eval, &final_tests);
+    let unexplained =
+        verdict::unexplained(&final_tested.model, val, &final_tested.eval, &final_tests);
     let mut found: Vec<String> = accepted.iter().map(|e| e.key().to_string()).collect();
     found.extend(accepted_terms.iter().map(|t| t.id(&names)));
+    // Accepted findings that trade another channel: said in the summary, not only in
+    // their evidence cards.
+    let traded: Vec<String> = findings
+        .iter()
+        .filter(|f| f.significant && !f.conflicts.is_empty())
+        .map(|f| {
+            let chans: Vec<&str> = f
+                .conflicts
+                .iter()
+                .filter_map(|c| c.split(" gets ").next())
+                .collect();
+            format!(
+                "{} was accepted with a conflict: it leaves {} worse beyond the noise in a view (its conflicts say how much); a trade between channels usually means the base's structure is wrong or missing",
+                f.effect,
+                chans.join(", ")
+            )
+        })
+        .collect();
     let summary = match verdict {
-        Verdict::Adequate => "nothing significant: the calibrated model is adequate for this data (every channel within its noise floor and parameter uncertainty)".to_string(),
+        Verdict::Adequate => "nothing significant: the calibrated model is adequate for this data (every channel within its noise floor and the uncertainty of its parameters and inputs)".to_string(),
         Verdict::Explained => format!(
             "found {}: with them the model is consistent with the held-out data (explained)",
             found.join(", then ")
@@ -569,13 +619,29 @@ pub fn diagnose(
             }
         }
     };
+    let summary = if traded.is_empty() {
+        summary
+    } else {
+        format!("{summary} ({})", traded.join("; "))
+    };
     let mut data_notes = crate::ingest::treatment_sentences(train);
     for s in crate::ingest::treatment_sentences(val) {
         if !data_notes.contains(&s) {
             data_notes.push(s);
         }
     }
-    let calibration_notes = crate::calibrate::calibration_notes(&cal);
+    let mut calibration_notes = crate::calibrate::calibration_notes(&cal, train);
+    if !final_tested.moved.is_empty() {
+        let moved: Vec<String> = final_tested
+            .moved
+            .iter()
+            .map(|(k, a, b)| format!("{k} {a:.4} → {b:.4}"))
+            .collect();
+        calibration_notes.push(format!(
+            "the verdict tests the model with its parameters refitted within their documented uncertainty (H₀: the model is right up to its parameters), which moved {}",
+            moved.join(", ")
+        ));
+    }
     Ok(Diagnosis {
         model: model_label.to_string(),
         baseline,
@@ -596,6 +662,79 @@ pub fn diagnose(
         closed_loop,
         calibration_notes,
         search_notes,
+    })
+}
+
+/// A model's consistency tests as the verdict takes them, with the model and evaluation
+/// they were taken on.
+#[derive(Debug, Clone)]
+struct Tested {
+    tests: Vec<verdict::ChannelTest>,
+    model: LabModel,
+    eval: crate::evaluate::Evaluation,
+    /// Parameters the H₀ refit moved (key, from, to).
+    moved: Vec<(String, f64, f64)>,
+    /// The H₀ refit, when one was needed.
+    null: Option<Box<verdict::NullRefit>>,
+}
+
+/// The verdict's tests of `model` (free parameters `free`, held-out evaluation `eval`):
+/// the model as it is, when every channel already passes within its noise alone (the
+/// strictest form); otherwise its H₀ refit with the parameter and input spread
+/// ([`verdict::null_refit`], [`verdict::input_spread`]) — or the model as it is with that
+/// spread, when that leaves fewer channels inconsistent (both are the model within its
+/// parameter uncertainty).
+#[allow(clippy::too_many_arguments)]
+fn tested(
+    model: &LabModel,
+    free: &[Param],
+    train: &[Run],
+    val: &[Run],
+    eval: &crate::evaluate::Evaluation,
+    scales: &crate::calibrate::ChannelScales,
+    known: Option<verdict::KnownJacobian<'_>>,
+    prior: Option<&verdict::NullRefit>,
+    threads: usize,
+) -> Result<Tested, LabError> {
+    let zero = [0.0; crate::data::N_CHANNELS];
+    let plain = verdict::test_channels(model, val, eval, &zero);
+    if verdict::all_consistent(&plain) {
+        return Ok(Tested {
+            tests: plain,
+            model: model.clone(),
+            eval: eval.clone(),
+            moved: Vec::new(),
+            null: None,
+        });
+    }
+    let null = match prior.map(|p| verdict::null_refit_from(p, model, train, val)) {
+        Some(Ok(n)) => n,
+        _ => verdict::null_refit(model, free, train, val, scales, known, threads)?,
+    };
+    let input = verdict::input_spread(&null.model, val, &null.eval.shooting);
+    let mut spread = null.spread;
+    for (s, u) in spread.iter_mut().zip(input) {
+        *s = s.hypot(u);
+    }
+    let refit = verdict::test_channels(&null.model, val, &null.eval, &spread);
+    let as_is = verdict::test_channels(model, val, eval, &spread);
+    let bad = |t: &[verdict::ChannelTest]| t.iter().filter(|c| !c.consistent).count();
+    Ok(if bad(&as_is) < bad(&refit) {
+        Tested {
+            tests: as_is,
+            model: model.clone(),
+            eval: eval.clone(),
+            moved: Vec::new(),
+            null: Some(Box::new(null)),
+        }
+    } else {
+        Tested {
+            tests: refit,
+            model: null.model.clone(),
+            eval: null.eval.clone(),
+            moved: null.moved.clone(),
+            null: Some(Box::new(null)),
+        }
     })
 }
 

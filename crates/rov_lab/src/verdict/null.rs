@@ -1,0 +1,460 @@
+//! The verdict's null hypothesis, fitted before it is tested.
+//!
+//! H₀ is "the model is right up to its parameters' documented uncertainty". The
+//! calibration frees only the parameters the data determines well (thrust scales, the
+//! damping of the excited axes, …) and keeps the rest (most added masses and dampings) at
+//! the base file's values; a vehicle whose true values differ from those within their
+//! documented σ leaves a residual that is not a misfit of the model's structure. So the
+//! test is run on the *null refit* of the model under test: every free parameter and
+//! every documented-uncertain fixed one ([`super::fixed_uncertain`]) moved to the
+//! maximum a posteriori point of
+//!
+//! ```text
+//! P(θ) = Σ r(θ)² / κ + Σ_i ((θ_i − μ_i)/σ_i)²,    κ = N / N_eff,
+//! ```
+//!
+//! r the training multiple-shooting residual in the diagnosis' channel weights, μ, σ the
+//! documented prior (a weak prior at the current value for effect and term parameters,
+//! [`crate::calibrate::bounds_for`]) and κ the correlation inflation the rest of the lab
+//! uses. One Gauss–Newton step from the model under test (the step halved until P falls,
+//! at most twice; bounds respected) — the ridge null fit the term screening uses, taken
+//! to the model. The same linearisation gives the posterior covariance (in noise
+//! weights) behind σ_θ, the prediction spread the test allows.
+
+use nalgebra::{DMatrix, DVector};
+use rov_dynamics::models::Channel;
+
+use crate::LabError;
+use crate::calibrate::{ChannelScales, NOISE_ONLY, Objective, SHOOTING_WINDOW_S, View, bounds_for};
+use crate::data::{N_CHANNELS, Run, ch_index};
+use crate::evaluate::{Evaluation, evaluate};
+use crate::metrics::residual;
+use crate::model::LabModel;
+use crate::params::Param;
+use crate::sim::{Prediction, simulate_run};
+
+use super::fixed_uncertain;
+
+/// The model under test with its parameters refitted under H₀, and what that leaves.
+#[derive(Debug, Clone)]
+pub struct NullRefit {
+    /// The refitted model.
+    pub model: LabModel,
+    /// Its held-out evaluation.
+    pub eval: Evaluation,
+    /// σ_θ per channel (index as [`Channel::ALL`]).
+    pub spread: [f64; N_CHANNELS],
+    /// Parameters the refit moved by at least half their prior σ: (key, from, to), display
+    /// units.
+    pub moved: Vec<(String, f64, f64)>,
+    /// The refitted parameters.
+    pub params: Vec<Param>,
+    /// The training Jacobian of the multiple-shooting residual to them (weights
+    /// `scales`), at the model the refit started from.
+    pub jacobian: DMatrix<f64>,
+    /// The channel scales of that Jacobian's weights.
+    pub scales: ChannelScales,
+}
+
+/// A training Jacobian already at hand: its columns for the leading `free` parameters, in
+/// the weights of `scales`, with the residual at the model.
+#[derive(Debug, Clone, Copy)]
+pub struct KnownJacobian<'a> {
+    /// Columns (rows as [`Objective`]).
+    pub columns: &'a DMatrix<f64>,
+    /// The residual at the model.
+    pub residual: &'a [f64],
+}
+
+/// Fits H₀ to `model` (free parameters `free`) on `train` and evaluates it on `val`
+/// (module documentation).
+pub fn null_refit(
+    model: &LabModel,
+    free: &[Param],
+    train: &[Run],
+    val: &[Run],
+    scales: &ChannelScales,
+    known: Option<KnownJacobian<'_>>,
+    threads: usize,
+) -> Result<NullRefit, LabError> {
+    let fixed = fixed_uncertain(model, free);
+    let all: Vec<Param> = free
+        .iter()
+        .chain(&fixed)
+        .copied()
+        .filter(|p| model.get(*p).is_some())
+        .collect();
+    let n = all.len();
+    let shooting = View::Shooting(SHOOTING_WINDOW_S);
+    let obj = Objective::scaled(model, train, shooting, scales);
+    let known = known.filter(|k| k.columns.nrows() == k.residual.len());
+    let r0: Vec<f64> = match &known {
+        Some(k) if k.residual.len() == obj.len() => k.residual.to_vec(),
+        _ => obj.residuals(model)?,
+    };
+    let rows = r0.len();
+    // Columns: the known ones for the leading free parameters, forward differences of one
+    // parameter scale for the rest.
+    let known_cols = known
+        .as_ref()
+        .filter(|k| k.columns.nrows() == rows)
+        .map_or(0, |k| k.columns.ncols().min(free.len()));
+    let cols: Vec<Option<Vec<f64>>> =
+        crate::diagnose::par_map(n.saturating_sub(known_cols), threads, |i| {
+            let p = all[known_cols + i];
+            let v0 = model.get(p)?;
+            let meta = p.meta();
+            let h = if v0 + meta.scale > meta.hi {
+                -meta.scale
+            } else {
+                meta.scale
+            };
+            let m = model.with(&[p], &[v0 + h]).ok()?;
+            let r = obj.residuals(&m).ok()?;
+            (r.len() == rows).then(|| r.iter().zip(&r0).map(|(a, b)| (a - b) / h).collect())
+        });
+    let mut j = DMatrix::zeros(rows, n);
+    if let Some(k) = &known {
+        for c in 0..known_cols {
+            j.set_column(c, &k.columns.column(c));
+        }
+    }
+    for (i, c) in cols.iter().enumerate() {
+        if let Some(c) = c {
+            j.set_column(known_cols + i, &DVector::from_column_slice(c));
+        }
+    }
+    let (refit, moved, cov) = map_step(model, &all, &j, &r0, &obj, train, scales)?;
+    let eval = evaluate(&refit, val)?;
+    let spread = match &cov {
+        Some(cov) => prediction_spread(&refit, &all, val, &eval.shooting, cov, threads),
+        None => [0.0; N_CHANNELS],
+    };
+    Ok(NullRefit {
+        model: refit,
+        eval,
+        spread,
+        moved,
+        params: all,
+        jacobian: j,
+        scales: *scales,
+    })
+}
+
+/// [`null_refit`] of a model that extends the one `prior` was fitted to (the calibrated
+/// base with accepted findings), reusing its linearisation: the same parameters refitted
+/// from this model's own training residual with `prior`'s Jacobian (adding an effect
+/// hardly changes the base parameters' sensitivities; the findings' own parameters were
+/// fitted by their confirmation), and `prior`'s posterior prediction spread. One
+/// training simulation and the held-out evaluation instead of a Jacobian.
+pub fn null_refit_from(
+    prior: &NullRefit,
+    model: &LabModel,
+    train: &[Run],
+    val: &[Run],
+) -> Result<NullRefit, LabError> {
+    let all = prior.params.clone();
+    let obj = Objective::scaled(
+        model,
+        train,
+        View::Shooting(SHOOTING_WINDOW_S),
+        &prior.scales,
+    );
+    let r0 = obj.residuals(model)?;
+    if all.iter().any(|p| model.get(*p).is_none()) || r0.len() != prior.jacobian.nrows() {
+        return Err(LabError::Model {
+            detail: "the H₀ linearisation does not fit this model".into(),
+        });
+    }
+    let (refit, moved, _) = map_step(
+        model,
+        &all,
+        &prior.jacobian,
+        &r0,
+        &obj,
+        train,
+        &prior.scales,
+    )?;
+    let eval = evaluate(&refit, val)?;
+    Ok(NullRefit {
+        model: refit,
+        eval,
+        spread: prior.spread,
+        moved,
+        params: all,
+        jacobian: prior.jacobian.clone(),
+        scales: prior.scales,
+    })
+}
+
+/// The MAP step of [`null_refit`] from `model` with the Jacobian `j` of the residual `r0`
+/// (weights of `obj`), the step halved until the penalised cost falls (at most twice):
+/// the refitted model, the parameters it moved by at least half their prior σ, and the
+/// posterior covariance in noise weights.
+#[allow(clippy::type_complexity)]
+fn map_step(
+    model: &LabModel,
+    all: &[Param],
+    j: &DMatrix<f64>,
+    r0: &[f64],
+    obj: &Objective<'_>,
+    train: &[Run],
+    scales: &ChannelScales,
+) -> Result<(LabModel, Vec<(String, f64, f64)>, Option<DMatrix<f64>>), LabError> {
+    let n = all.len();
+    let rows = r0.len();
+    let shooting = View::Shooting(SHOOTING_WINDOW_S);
+    let n_eff = crate::calibrate::effective_n(r0, train.first().map_or(1, |r| r.len()));
+    let infl = (rows as f64 / n_eff.max(1.0)).max(1.0);
+    let bounds = bounds_for(model, all, true);
+    let theta0 = model.values(all);
+    let lambda: Vec<f64> = bounds
+        .iter()
+        .map(|b| match b.prior {
+            Some((_, s)) if s > 0.0 => 1.0 / (s * s),
+            _ => 0.0,
+        })
+        .collect();
+    let mu: Vec<f64> = bounds
+        .iter()
+        .zip(&theta0)
+        .map(|(b, v)| b.prior.map_or(*v, |(m, _)| m))
+        .collect();
+    let ridge = |a: &mut DMatrix<f64>| {
+        let maxd = (0..n).map(|i| a[(i, i)]).fold(0.0f64, f64::max).max(1e-300);
+        for i in 0..n {
+            a[(i, i)] += 1e-9 * maxd + lambda[i];
+        }
+    };
+    // The MAP step in the diagnosis' weights.
+    let mut a = (j.transpose() * j) / infl;
+    ridge(&mut a);
+    let r0v = DVector::from_column_slice(r0);
+    let mut g = (j.transpose() * &r0v) / infl;
+    for i in 0..n {
+        g[i] += lambda[i] * (theta0[i] - mu[i]);
+    }
+    let penalised = |r: &[f64], th: &[f64]| -> f64 {
+        r.iter().map(|x| x * x).sum::<f64>() / infl
+            + th.iter()
+                .zip(&mu)
+                .zip(&lambda)
+                .map(|((t, m), l)| l * (t - m) * (t - m))
+                .sum::<f64>()
+    };
+    let mut refit = model.clone();
+    if let Some(step) = a.clone().cholesky().map(|c| c.solve(&(-&g))) {
+        let p0 = penalised(r0, &theta0);
+        let mut frac = 1.0;
+        for _ in 0..3 {
+            let th: Vec<f64> = theta0
+                .iter()
+                .zip(step.iter())
+                .zip(&bounds)
+                .map(|((t, d), b)| (t + frac * d).clamp(b.lo, b.hi))
+                .collect();
+            if let Ok(m) = model.with(all, &th)
+                && let Ok(r) = obj.residuals(&m)
+                && r.len() == rows
+                && penalised(&r, &th) < p0
+            {
+                refit = m;
+                break;
+            }
+            frac *= 0.5;
+        }
+    }
+    // The posterior covariance under H₀: the rows back to noise weights.
+    let factors = crate::calibrate::row_factors(model, train, shooting, scales, &NOISE_ONLY);
+    let mut jn = j.clone();
+    if let Some(f) = factors.as_ref().filter(|f| f.len() == rows) {
+        for c in 0..n {
+            for (x, k) in jn.column_mut(c).iter_mut().zip(f) {
+                *x *= k;
+            }
+        }
+    }
+    let mut an = (jn.transpose() * &jn) / infl;
+    ridge(&mut an);
+    let cov = an.try_inverse();
+    let theta1 = refit.values(all);
+    let moved = all
+        .iter()
+        .zip(theta0.iter().zip(&theta1))
+        .zip(&lambda)
+        .filter(|(_, l)| **l > 0.0)
+        .filter(|((_, (a, b)), l)| (**b - **a).abs() * l.sqrt() >= 0.5)
+        .map(|((p, (a, b)), _)| (p.key(), p.display(*a).0, p.display(*b).0))
+        .collect();
+    Ok((refit, moved, cov))
+}
+
+/// σ_θ per channel: the RMS over the held-out samples of sᵀ C s, s the sensitivities of
+/// the multiple-shooting prediction to `params` (forward differences of one scale).
+fn prediction_spread(
+    model: &LabModel,
+    params: &[Param],
+    val: &[Run],
+    pred: &[Prediction],
+    cov: &DMatrix<f64>,
+    threads: usize,
+) -> [f64; N_CHANNELS] {
+    let n = params.len();
+    let sens: Vec<Option<PerRun>> = crate::diagnose::par_map(n, threads, |i| {
+        let p = params[i];
+        let v0 = model.get(p)?;
+        let meta = p.meta();
+        let h = if v0 + meta.scale > meta.hi {
+            -meta.scale
+        } else {
+            meta.scale
+        };
+        let m = model.with(&[p], &[v0 + h]).ok()?;
+        let mut out = Vec::with_capacity(val.len());
+        for (run, b) in val.iter().zip(pred) {
+            let pr = simulate_run(&m, run, &View::Shooting(SHOOTING_WINDOW_S).resets(run)).ok()?;
+            let mut per: [Option<Vec<f64>>; N_CHANNELS] = Default::default();
+            for ch in Channel::ALL {
+                if let (Some(a), Some(c)) = (pr.channel(ch), b.channel(ch)) {
+                    per[ch_index(ch)] = Some(
+                        a.iter()
+                            .zip(c)
+                            .map(|(x, y)| {
+                                let d = residual(ch, *y, *x) / h;
+                                if d.is_finite() { d } else { 0.0 }
+                            })
+                            .collect(),
+                    );
+                }
+            }
+            out.push(per);
+        }
+        Some(out)
+    });
+    let mut var = [0.0; N_CHANNELS];
+    let mut cnt = [0usize; N_CHANNELS];
+    let mut s = vec![0.0; n];
+    for (ri, run) in val.iter().enumerate() {
+        for ch in Channel::ALL {
+            let ci = ch_index(ch);
+            if pred.get(ri).and_then(|p| p.channel(ch)).is_none() || !run.has(ch) {
+                continue;
+            }
+            for k in 0..run.len() {
+                for (a, sa) in s.iter_mut().enumerate() {
+                    *sa = sens[a]
+                        .as_ref()
+                        .and_then(|v| v.get(ri))
+                        .and_then(|per| per[ci].as_ref())
+                        .and_then(|x| x.get(k))
+                        .copied()
+                        .unwrap_or(0.0);
+                }
+                let mut v = 0.0;
+                for a in 0..n {
+                    if s[a] == 0.0 {
+                        continue;
+                    }
+                    for b in 0..n {
+                        v += s[a] * cov[(a, b)] * s[b];
+                    }
+                }
+                var[ci] += v.max(0.0);
+                cnt[ci] += 1;
+            }
+        }
+    }
+    let mut out = [0.0; N_CHANNELS];
+    for i in 0..N_CHANNELS {
+        if cnt[i] > 0 {
+            out[i] = (var[i] / cnt[i] as f64).sqrt();
+        }
+    }
+    out
+}
+
+/// Per held-out run, per channel: a sensitivity series.
+type PerRun = Vec<[Option<Vec<f64>>; N_CHANNELS]>;
+
+/// Resolution of a Pro 4 thrust command on the link, percent: the station sends whole
+/// percent (`rov_types::conventions`, the wire's thrust value is the rounded percentage).
+pub const PRO4_COMMAND_RESOLUTION_PCT: f64 = 1.0;
+
+/// σ_u per channel: the prediction spread that the recorded commands' own uncertainty
+/// leaves, from two independent sources, each the RMS change of the held-out
+/// multiple-shooting prediction `pred` under one variant of the commands (variances
+/// added):
+///
+/// * **Resolution.** A Pro 4 receives its thrust in whole percent while a station log
+///   records the autopilot's unrounded demand, so the command the vehicle ran is known
+///   only to ±0.5 %: the commands rounded to [`PRO4_COMMAND_RESOLUTION_PCT`] (nothing
+///   for commands already on that lattice, or for vehicle files, which document no
+///   resolution).
+/// * **Timing.** A log aligns a command with the measurements only to within one sample:
+///   a station records the command it computed with the last measurement it had, and
+///   the vehicle applies it when it arrives, up to one exchange later. The commands
+///   delayed by one sample. (For held steps this matters only at the edges; for an
+///   autopilot's demand, which changes every sample, it is the whole signal.)
+pub fn input_spread(model: &LabModel, val: &[Run], pred: &[Prediction]) -> [f64; N_CHANNELS] {
+    let mut var = [0.0; N_CHANNELS];
+    let mut cnt = [0usize; N_CHANNELS];
+    let pro4 = model.kind() != crate::model::BaseKind::Vehicle;
+    for (run, p) in val.iter().zip(pred) {
+        let mut variants: Vec<Run> = Vec::new();
+        if pro4 {
+            let q = PRO4_COMMAND_RESOLUTION_PCT;
+            let mut rounded = run.clone();
+            let mut changed = false;
+            for c in rounded.inputs.iter_mut() {
+                for x in c.iter_mut() {
+                    let r = (*x / q).round() * q;
+                    changed |= (r - *x).abs() > 1e-9;
+                    *x = r;
+                }
+            }
+            if changed {
+                variants.push(rounded);
+            }
+        }
+        let mut delayed = run.clone();
+        for k in (1..delayed.inputs.len()).rev() {
+            delayed.inputs[k] = delayed.inputs[k - 1];
+        }
+        variants.push(delayed);
+        let mut sum = [0.0; N_CHANNELS];
+        let mut n = [0usize; N_CHANNELS];
+        for v in &variants {
+            let Ok(pr) = simulate_run(model, v, &View::Shooting(SHOOTING_WINDOW_S).resets(run))
+            else {
+                continue;
+            };
+            for ch in Channel::ALL {
+                if let (Some(a), Some(b)) = (pr.channel(ch), p.channel(ch)) {
+                    let i = ch_index(ch);
+                    for (x, y) in a.iter().zip(b) {
+                        let d = residual(ch, *y, *x);
+                        if d.is_finite() {
+                            sum[i] += d * d;
+                            n[i] += 1;
+                        }
+                    }
+                }
+            }
+        }
+        // Per sample: the variances of the variants added (each variant's mean square).
+        let per_variant = variants.len().max(1);
+        for i in 0..N_CHANNELS {
+            if n[i] > 0 {
+                var[i] += sum[i];
+                cnt[i] += n[i] / per_variant;
+            }
+        }
+    }
+    let mut out = [0.0; N_CHANNELS];
+    for i in 0..N_CHANNELS {
+        if cnt[i] > 0 {
+            out[i] = (var[i] / cnt[i] as f64).sqrt();
+        }
+    }
+    out
+}
