@@ -8,7 +8,8 @@
 //!   cargo test --release -p topside --test long_session -- --ignored --exact gui_replay_opens
 //! ```
 //!
-//! (`topside replay --headless` and `topside export` are measured on the binary itself.)
+//! (`topside replay --headless`, `topside export` and the whole `topside lab compare` are
+//! measured on the binary itself.)
 
 use std::time::{Duration, Instant};
 
@@ -71,8 +72,10 @@ fn gui_replay_opens() {
     assert!(open_s < 2.0, "opening took {open_s} s");
 }
 
-/// The lab's loading of a session (cmd_lab::load_run / the GUI lab's load): the
-/// measurement rows, then the lab's run.
+/// The lab's loading of a session, as `topside lab` and the GUI's lab tab do it
+/// (`rov_lab::stream`): "open" is the time until the lab knows the session's length,
+/// channels and plan (from the MCAP summary) and starts reading; then the rows stream,
+/// decimated, into the lab's runs. Peak RSS is the process's (run one test per process).
 #[test]
 #[ignore = "needs TOPSIDE_LONG_SESSION"]
 fn lab_loads() {
@@ -82,17 +85,33 @@ fn lab_loads() {
     };
     let t0 = Instant::now();
     let s = rov_session::open(&path).unwrap();
-    let (series, _, _) = rov_session::measurements(&s).unwrap();
+    let nav = s.count(rov_session::Topic::Nav.name());
+    let mut stream = rov_lab::stream::LogStream::new("long", nav);
+    let open_s = t0.elapsed().as_secs_f64();
+    let done = rov_session::measurements_each(&s, &mut |_, row| stream.push(row)).unwrap();
     let read_s = t0.elapsed().as_secs_f64();
     let read_mb = peak_mb();
-    let run = rov_lab::Run::from_series(&series, "long").unwrap();
+    let factor = stream.factor();
+    let runs = stream.finish(done.present).unwrap();
+    let kept: usize = runs.iter().map(|r| r.len()).sum();
     eprintln!(
-        "lab load of {} rows: measurements {read_s:.2} s (peak {read_mb:.0} MB), run built at {:.2} s, peak RSS {:.0} MB",
-        series.rows.len(),
+        "lab load of {:.1} h, {} rows ({} nav messages in the summary): open {open_s:.3} s \
+         (plan: keep 1 in {factor}); rows read by {read_s:.2} s (peak {read_mb:.0} MB); \
+         {} run(s) of {kept} samples built at {:.2} s; peak RSS {:.0} MB",
+        s.duration_s() / 3600.0,
+        done.rows,
+        nav,
+        runs.len(),
         t0.elapsed().as_secs_f64(),
         peak_mb()
     );
-    assert_eq!(run.t.len(), series.rows.len());
+    assert!(open_s < 2.0, "opening took {open_s} s");
+    assert!(kept <= rov_lab::stream::MAX_LAB_ROWS + 1, "{kept}");
+    assert!(
+        kept * factor >= done.rows.saturating_sub(factor),
+        "{kept} × {factor} < {}",
+        done.rows
+    );
 }
 
 /// The replay's indexing pass over the whole session (the plot history and tether turns
