@@ -114,6 +114,69 @@ fn lab_loads() {
     );
 }
 
+/// The session's runs with a given plan (`expected_rows` = 0 keeps every row).
+fn lab_runs(path: &std::path::Path, expected_rows: usize) -> (Vec<rov_lab::Run>, usize) {
+    let s = rov_session::open(path).unwrap();
+    let mut stream = rov_lab::stream::LogStream::new("long", expected_rows);
+    let factor = stream.factor();
+    let done = rov_session::measurements_each(&s, &mut |_, row| stream.push(row)).unwrap();
+    (stream.finish(done.present).unwrap(), factor)
+}
+
+/// How much decimation changes `lab compare` on a long session: the pooled RMSE of every
+/// channel and view with every row kept, with the planned factor and with 8:1 (the 8-hour
+/// session's factor). Use a 1.5–3 hour session (every row kept needs ~130 MB per hour).
+#[test]
+#[ignore = "needs TOPSIDE_LONG_SESSION"]
+fn lab_decimation_changes_compare_little() {
+    let Some(path) = session() else {
+        eprintln!("TOPSIDE_LONG_SESSION is not set");
+        return;
+    };
+    let nav = rov_session::open(&path)
+        .unwrap()
+        .count(rov_session::Topic::Nav.name());
+    let model = rov_lab::LabModel::default_base(rov_lab::BaseKind::Model3).unwrap();
+    let mut reports = Vec::new();
+    for plan in [0, nav, 8 * rov_lab::stream::MAX_LAB_ROWS] {
+        let (runs, factor) = lab_runs(&path, plan);
+        let r = rov_lab::lab::compare(&model, "model3", &runs, &[], 2).unwrap();
+        reports.push((factor, r, runs[0].noise));
+    }
+    let (_, full, noise0) = &reports[0];
+    let mut worst_shooting: f64 = 0.0;
+    for (factor, r, noise) in &reports[1..] {
+        for (i, ch) in rov_dynamics::models::Channel::ALL.iter().enumerate() {
+            eprintln!(
+                "1:{factor:<2} noise floor {:<10} {:.5} (all rows {:.5})",
+                rov_lab::data::ch_name(*ch),
+                noise[i],
+                noise0[i]
+            );
+        }
+        for (view, vm) in &r.pooled {
+            for (ch, m) in &vm.channels {
+                let m0 = &full.pooled[view].channels[ch];
+                let rel = (m.rmse - m0.rmse) / m0.rmse.max(1e-12);
+                eprintln!(
+                    "1:{factor:<2} {view:<9} {ch:<10} RMSE {:.5} (all rows {:.5}, {:+.1} %)",
+                    m.rmse,
+                    m0.rmse,
+                    rel * 100.0,
+                );
+                if view == "shooting" && m0.rmse > 1e-3 {
+                    worst_shooting = worst_shooting.max(rel.abs());
+                }
+            }
+        }
+    }
+    eprintln!(
+        "largest relative change of a shooting RMSE: {:.1} %",
+        worst_shooting * 100.0
+    );
+    assert!(worst_shooting < 0.25, "{worst_shooting}");
+}
+
 /// The replay's indexing pass over the whole session (the plot history and tether turns
 /// for every position), run to the end as `VirtualReplay` does before it returns; the
 /// threaded replay runs it in the background after opening.
