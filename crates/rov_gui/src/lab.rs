@@ -148,20 +148,32 @@ pub fn load(path: &Path) -> Result<LabData, String> {
     let is_mcap = path
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("mcap"));
-    let (series, warnings) = if is_mcap {
+    let (series, raw, warnings) = if is_mcap {
+        // Streamed, and decimated when long (rov_lab::stream), as `topside lab` reads it.
         let session = rov_session::open(path).map_err(|e| e.to_string())?;
-        let (s, _, w) = rov_session::measurements(&session).map_err(|e| e.to_string())?;
-        (s, w)
+        let nav = session.count(rov_session::Topic::Nav.name());
+        let mut stream = rov_lab::stream::LogStream::new(&name, nav);
+        let done = rov_session::measurements_each(&session, &mut |_, row| stream.push(row))
+            .map_err(|e| e.to_string())?;
+        let (s, raw) = stream.finish_series(done.present);
+        (s, raw, done.warnings)
     } else {
         let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
         let s = MeasurementSeries::parse_csv(&text, &name).map_err(|e| e.to_string())?;
         let w = s.warnings.clone();
-        (s, w)
+        (s, None, w)
     };
     let (a, b) = split_series(&series);
-    let full = Run::from_series(&series, &name).map_err(|e| e.to_string())?;
-    let train = Run::from_series(&a, &format!("{name} (training)")).map_err(|e| e.to_string())?;
-    let val = Run::from_series(&b, &format!("{name} (held out)")).map_err(|e| e.to_string())?;
+    let run = |s: &MeasurementSeries, label: &str| -> Result<Run, String> {
+        let mut r = Run::from_series(s, label).map_err(|e| e.to_string())?;
+        if let Some(raw) = &raw {
+            raw.apply(&mut r);
+        }
+        Ok(r)
+    };
+    let full = run(&series, &name)?;
+    let train = run(&a, &format!("{name} (training)"))?;
+    let val = run(&b, &format!("{name} (held out)"))?;
     Ok(LabData {
         name,
         full: Arc::new(full),

@@ -72,7 +72,7 @@ pub fn ch_wraps(ch: Channel) -> bool {
 const START_WINDOW_S: f64 = 2.0;
 
 /// Lowest noise floor assumed for a channel (quantisation and numerics).
-fn noise_floor_min(ch: Channel) -> f64 {
+pub(crate) fn noise_floor_min(ch: Channel) -> f64 {
     match ch {
         Channel::Depth => 0.002,
         Channel::Heading | Channel::Pitch | Channel::Roll => 0.03,
@@ -250,39 +250,71 @@ impl Treatment {
     }
 }
 
-fn unwrap_deg(v: &mut [f64]) {
-    let mut offset = 0.0;
-    let mut prev: Option<f64> = None;
-    for x in v.iter_mut() {
+/// Heading/roll unwrapping one sample at a time (non-finite samples pass unchanged and
+/// do not move the reference).
+#[derive(Debug, Clone, Copy, Default)]
+pub(crate) struct Unwrapper {
+    offset: f64,
+    prev: Option<f64>,
+}
+
+impl Unwrapper {
+    /// The next sample, unwrapped.
+    pub(crate) fn next(&mut self, x: f64) -> f64 {
         if !x.is_finite() {
-            continue;
+            return x;
         }
-        if let Some(p) = prev {
-            let d = *x + offset - p;
+        if let Some(p) = self.prev {
+            let d = x + self.offset - p;
             if d > 180.0 {
-                offset -= 360.0 * ((d + 180.0) / 360.0).floor();
+                self.offset -= 360.0 * ((d + 180.0) / 360.0).floor();
             } else if d < -180.0 {
-                offset += 360.0 * ((-d + 180.0) / 360.0).floor();
+                self.offset += 360.0 * ((-d + 180.0) / 360.0).floor();
             }
         }
-        *x += offset;
-        prev = Some(*x);
+        let y = x + self.offset;
+        self.prev = Some(y);
+        y
     }
 }
+
+fn unwrap_deg(v: &mut [f64]) {
+    let mut u = Unwrapper::default();
+    for x in v.iter_mut() {
+        *x = u.next(*x);
+    }
+}
+
+/// The third difference the noise estimate is built on (a smooth signal cancels; white
+/// noise of σ gives σ·√20).
+#[inline]
+pub(crate) fn third_difference(w: [f64; 4]) -> f64 {
+    (w[3] - 3.0 * w[2] + 3.0 * w[1] - w[0]).abs()
+}
+
+/// White-noise σ from the median absolute third difference (1.4826 × median is the
+/// normal σ of the differences, whose variance is 20 σ²).
+#[inline]
+pub(crate) fn noise_from_median(median_abs_third_difference: f64) -> f64 {
+    1.4826 * median_abs_third_difference / 20f64.sqrt()
+}
+
+/// Fewest finite third differences a noise estimate needs.
+pub(crate) const NOISE_MIN_DIFFERENCES: usize = 8;
 
 /// Robust white-noise estimate from third differences (smooth signals cancel).
 fn noise_estimate(v: &[f64]) -> Option<f64> {
     let mut d: Vec<f64> = v
         .windows(4)
-        .map(|w| (w[3] - 3.0 * w[2] + 3.0 * w[1] - w[0]).abs())
+        .map(|w| third_difference([w[0], w[1], w[2], w[3]]))
         .filter(|x| x.is_finite())
         .collect();
-    if d.len() < 8 {
+    if d.len() < NOISE_MIN_DIFFERENCES {
         return None;
     }
     d.sort_by(f64::total_cmp);
     let med = d[d.len() / 2];
-    Some(1.4826 * med / 20f64.sqrt())
+    Some(noise_from_median(med))
 }
 
 /// Length of the run-start stretch fitted by one straight line for the initial state

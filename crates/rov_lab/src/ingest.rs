@@ -386,11 +386,28 @@ pub fn series_runs(
     label: &str,
     inputs: Option<(Vec<Commands>, [bool; N_COMMANDS])>,
 ) -> Result<Vec<Run>, LabError> {
+    series_runs_with(series, label, inputs, None)
+}
+
+/// [`series_runs`] of the kept rows of a decimated log ([`crate::stream`]): the gap rule
+/// on the raw median interval, and each run given the raw noise floors and intervals.
+/// With `raw` = `None` it is [`series_runs`].
+pub fn series_runs_with(
+    series: &MeasurementSeries,
+    label: &str,
+    inputs: Option<(Vec<Commands>, [bool; N_COMMANDS])>,
+    raw: Option<&crate::stream::RawStats>,
+) -> Result<Vec<Run>, LabError> {
     let t: Vec<f64> = series.rows.iter().map(|r| r.time_s).collect();
-    let mut dts: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
-    dts.sort_by(f64::total_cmp);
-    let med = dts.get(dts.len() / 2).copied().unwrap_or(0.05);
-    let limit = GAP_MIN_S.max(GAP_MEDIAN_FACTOR * med);
+    let limit = match raw {
+        Some(r) => r.gap_limit_s(),
+        None => {
+            let mut dts: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
+            dts.sort_by(f64::total_cmp);
+            let med = dts.get(dts.len() / 2).copied().unwrap_or(0.05);
+            GAP_MIN_S.max(GAP_MEDIAN_FACTOR * med)
+        }
+    };
     let mut cuts = vec![0usize];
     let mut gaps = Vec::new();
     for (k, w) in t.windows(2).enumerate() {
@@ -430,6 +447,9 @@ pub fn series_runs(
         };
         let inp = inputs.as_ref().map(|(v, p)| (v[*a..*b].to_vec(), *p));
         let mut run = Run::from_series_inputs(&piece, &name, inp)?;
+        if let Some(r) = raw {
+            r.apply(&mut run);
+        }
         run.treatment.source = label.to_string();
         run.treatment.segment = i + 1;
         run.treatment.segments = kept.len();

@@ -31,6 +31,7 @@ pub mod params;
 pub mod persist;
 pub mod plots;
 pub mod sim;
+pub mod stream;
 pub mod terms;
 pub mod verdict;
 

@@ -655,27 +655,77 @@ impl RowSink for SeriesSink {
     }
 }
 
-/// The measurement rows of a session (see the module docs for the timing rule), their
-/// times (ns) and warnings: the export without the extra columns, and the input of the
-/// model lab (`lab`, `sim run`, `replay --model`, the replay's model overlay). Reads only nav, thrust and truth, in one pass.
-pub fn measurements(session: &Session) -> Result<(MeasurementSeries, Vec<u64>, Vec<String>)> {
-    let mut sink = SeriesSink::default();
-    let done = build_rows(session, false, &mut sink)?;
-    let mut series = MeasurementSeries {
-        rows: sink.rows,
-        ..MeasurementSeries::default()
-    };
+/// Which optional measurement columns a pass found.
+fn present_of(done: &RowsDone) -> [bool; 8] {
+    let mut present = [false; 8];
     for (i, on) in done.rates.iter().enumerate() {
-        if let Some(p) = series.present.get_mut(i) {
+        if let Some(p) = present.get_mut(i) {
             *p = *on;
         }
     }
     for (ch, _) in TRUTH_COLS {
-        if let Some(p) = series.present.get_mut(ch as usize) {
+        if let Some(p) = present.get_mut(ch as usize) {
             *p = done.has_truth;
         }
     }
+    present
+}
+
+/// The measurement rows of a session (see the module docs for the timing rule), their
+/// times (ns) and warnings: the export without the extra columns, and the input of the
+/// model lab (`lab`, `sim run`, `replay --model`, the replay's model overlay). Reads only nav, thrust and truth, in one pass. Holds every
+/// row (192 B each); a long session streams through [`measurements_each`] instead.
+pub fn measurements(session: &Session) -> Result<(MeasurementSeries, Vec<u64>, Vec<String>)> {
+    let mut sink = SeriesSink::default();
+    let done = build_rows(session, false, &mut sink)?;
+    let series = MeasurementSeries {
+        rows: sink.rows,
+        present: present_of(&done),
+        warnings: Vec::new(),
+    };
     Ok((series, sink.times, done.warnings))
+}
+
+/// What [`measurements_each`] passed on.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MeasurementsStreamed {
+    /// Rows passed on.
+    pub rows: usize,
+    /// Which optional columns ([`rov_types::measurement::OPTIONAL_COLUMNS`]) the rows have.
+    pub present: [bool; 8],
+    /// Warnings of the pass (as [`measurements`] gives them).
+    pub warnings: Vec<String>,
+}
+
+/// The rows of [`measurements`] handed one at a time, in time order, to `each` (time in
+/// ns and the row) and not kept: memory stays flat however long the session is. Reads
+/// only nav, thrust and truth, in one pass.
+pub fn measurements_each(
+    session: &Session,
+    each: &mut dyn FnMut(u64, &MeasurementRow),
+) -> Result<MeasurementsStreamed> {
+    let mut sink = FnSink { each };
+    let done = build_rows(session, false, &mut sink)?;
+    Ok(MeasurementsStreamed {
+        rows: done.rows,
+        present: present_of(&done),
+        warnings: done.warnings,
+    })
+}
+
+/// Rows handed to a closure.
+struct FnSink<'a> {
+    each: &'a mut dyn FnMut(u64, &MeasurementRow),
+}
+
+impl RowSink for FnSink<'_> {
+    fn header(&mut self, _: &str, _: &[bool; 8]) -> Result<()> {
+        Ok(())
+    }
+    fn row(&mut self, t_ns: u64, row: &MeasurementRow, _: &str) -> Result<()> {
+        (self.each)(t_ns, row);
+        Ok(())
+    }
 }
 
 /// Rows written as CSV text to an output.

@@ -205,17 +205,38 @@ pub fn load_log(path: &Path) -> anyhow::Result<Vec<Run>> {
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("mcap"))
     {
-        let session = rov_session::open(path)
-            .with_context(|| format!("opening session {}", path.display()))?;
-        let (series, _, warnings) = rov_session::measurements(&session)
+        let (session, mut stream) = open_session_stream(path, &label)?;
+        let done = rov_session::measurements_each(&session, &mut |_, row| stream.push(row))
             .with_context(|| format!("reading measurements from {}", path.display()))?;
-        for w in warnings {
+        for w in done.warnings {
             eprintln!("warning: {label}: {w}");
         }
-        return Ok(rov_lab::ingest::series_runs(&series, &label, None)?);
+        return Ok(stream.finish(done.present)?);
     }
     let text = fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
     Ok(rov_lab::ingest::runs_from_text(&text, &label)?)
+}
+
+/// Opens a session for the lab: the summary gives its nav message count, and so the
+/// plan of [`rov_lab::stream`] (every row, or decimated to at most
+/// [`rov_lab::stream::MAX_LAB_ROWS`]), before any row is read. This is what "open" means
+/// in the lab's long-session figures.
+pub fn open_session_stream(
+    path: &Path,
+    label: &str,
+) -> anyhow::Result<(rov_session::Session, rov_lab::stream::LogStream)> {
+    let session =
+        rov_session::open(path).with_context(|| format!("opening session {}", path.display()))?;
+    let nav = session.count(rov_session::Topic::Nav.name());
+    let stream = rov_lab::stream::LogStream::new(label, nav);
+    if stream.factor() > 1 {
+        eprintln!(
+            "note: {label}: {nav} rows over {:.1} h; the lab keeps one sample in {} (see the data notes)",
+            session.duration_s() / 3600.0,
+            stream.factor()
+        );
+    }
+    Ok((session, stream))
 }
 
 fn load_runs(paths: &[PathBuf]) -> anyhow::Result<Vec<Run>> {

@@ -70,6 +70,61 @@ fn runs_anywhere_with_built_in_defaults_and_says_so() {
     );
 }
 
+/// The installed binary's other jobs from an empty directory with an empty home: `hold`
+/// with a built-in model, a short recording, and `lab compare` of that recording with a
+/// built-in model (nothing read from the checkout).
+#[test]
+fn hold_record_and_lab_run_from_an_empty_directory() {
+    let h = Home::new("jobs");
+    let run = |args: &[&str]| -> Output {
+        Command::new(env!("CARGO_BIN_EXE_topside"))
+            .current_dir(&h.0)
+            .env("HOME", &h.0)
+            .env_remove("XDG_CONFIG_HOME")
+            .args(args)
+            .output()
+            .unwrap()
+    };
+    let o = run(&[
+        "hold",
+        "--model",
+        "model3",
+        "--depth-m",
+        "5",
+        "--heading-deg",
+        "30",
+        "--duration-s",
+        "10",
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert!(
+        v["depth"]["rmse_m"].as_f64().is_some_and(f64::is_finite),
+        "{v}"
+    );
+    let o = record(&h.0, &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = run(&[
+        "lab",
+        "compare",
+        "--model",
+        "model3",
+        "--data",
+        "dive.mcap",
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["model"], "model3");
+    assert!(
+        v["pooled"]["shooting"]["channels"]["depth"]["rmse"]
+            .as_f64()
+            .is_some_and(f64::is_finite),
+        "{v}"
+    );
+}
+
 /// The config text recorded in a session (the `config.toml` attachment).
 fn rov_session_config(path: &Path) -> String {
     let bytes = std::fs::read(path).unwrap();

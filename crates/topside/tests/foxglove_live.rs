@@ -137,7 +137,7 @@ fn a_foxglove_client_subscribes_and_receives_telemetry_at_the_recorded_rate() {
     let mut server_info = None;
     let mut texts = Vec::new();
     let deadline = Instant::now() + Duration::from_secs(5);
-    while Instant::now() < deadline && (server_info.is_none() || channels.len() < 12) {
+    while Instant::now() < deadline && (server_info.is_none() || channels.len() < 13) {
         let m = next(&mut ws);
         texts.push(format!("{m:?}").chars().take(300).collect::<String>());
         if let Some(Message::Text(t)) = m {
@@ -210,11 +210,21 @@ fn a_foxglove_client_subscribes_and_receives_telemetry_at_the_recorded_rate() {
     );
     assert!(!tf.schema.is_empty());
 
+    // The camera video the station records (the sim camera), as a recorded session has it.
+    let video = channels
+        .get("/camera/video")
+        .cloned()
+        .expect("/camera/video not advertised");
+    assert_eq!(
+        (video.encoding.as_str(), video.schema_name.as_str()),
+        ("protobuf", "foxglove.CompressedVideo")
+    );
     let subscribe = serde_json::json!({
         "op": "subscribe",
         "subscriptions": [
             {"id": 1, "channelId": nav.id},
             {"id": 2, "channelId": tf.id},
+            {"id": 3, "channelId": video.id},
         ],
     });
     ws.send(Message::Text(subscribe.to_string().into()))
@@ -224,6 +234,7 @@ fn a_foxglove_client_subscribes_and_receives_telemetry_at_the_recorded_rate() {
     // The first navigation record within 2 s, a plausible one.
     let mut first_nav = None;
     let mut tf_msg = None;
+    let mut video_msgs: Vec<(u64, Vec<u8>)> = Vec::new();
     while subscribed.elapsed() < Duration::from_secs(2) && first_nav.is_none() {
         if let Some(Message::Binary(b)) = next(&mut ws)
             && let Some((sub, t, payload)) = message_data(&b)
@@ -232,6 +243,8 @@ fn a_foxglove_client_subscribes_and_receives_telemetry_at_the_recorded_rate() {
                 first_nav = Some((t, payload.to_vec(), subscribed.elapsed()));
             } else if sub == 2 {
                 tf_msg = Some(payload.to_vec());
+            } else if sub == 3 {
+                video_msgs.push((t, payload.to_vec()));
             }
         }
     }
@@ -269,6 +282,8 @@ fn a_foxglove_client_subscribes_and_receives_telemetry_at_the_recorded_rate() {
                 last_t = t;
             } else if sub == 2 && tf_msg.is_none() {
                 tf_msg = Some(payload.to_vec());
+            } else if sub == 3 {
+                video_msgs.push((t, payload.to_vec()));
             }
         }
     }
@@ -283,6 +298,16 @@ fn a_foxglove_client_subscribes_and_receives_telemetry_at_the_recorded_rate() {
     );
     let z = tf.translation.unwrap().z;
     assert!((-20.0..1.0).contains(&z), "{z}");
+
+    // Live H.264 access units (foxglove.CompressedVideo), a key frame among them within
+    // the 5 s (the encoder's key-frame interval is at most 2 s).
+    let frames: Vec<rov_session::foxglove::VideoFrame> = video_msgs
+        .iter()
+        .map(|(t, p)| rov_session::foxglove::decode_video(*t, p).unwrap())
+        .collect();
+    assert!(frames.len() >= 10, "{} live video frames", frames.len());
+    assert!(frames.iter().any(|f| f.key_frame), "no key frame served");
+    assert!(frames.windows(2).all(|w| w[1].t_ns > w[0].t_ns));
 
     drop(ws);
     let status = child.wait().unwrap();
@@ -302,8 +327,9 @@ fn a_foxglove_client_subscribes_and_receives_telemetry_at_the_recorded_rate() {
         .unwrap();
     let recorded_hz = (t.count - 1) as f64 / ((t.last_ns - t.first_ns) as f64 * 1e-9);
     eprintln!(
-        "first nav {:.0} ms after subscribing; live {arrival_hz:.1} Hz by arrival, {logged_hz:.1} Hz by log time; recorded {recorded_hz:.1} Hz",
-        latency.as_secs_f64() * 1e3
+        "first nav {:.0} ms after subscribing; live {arrival_hz:.1} Hz by arrival, {logged_hz:.1} Hz by log time; recorded {recorded_hz:.1} Hz; {} live video frames",
+        latency.as_secs_f64() * 1e3,
+        frames.len()
     );
     for (what, hz) in [("arrival", arrival_hz), ("log time", logged_hz)] {
         assert!(

@@ -547,7 +547,7 @@ impl Engine {
                 let video = self
                     .video
                     .as_ref()
-                    .map(|v| v.begin_recording(r.video_tap()));
+                    .map(|v| v.begin_recording(r.video_tap().with_live(self.live.clone())));
                 self.recorder = Some(r);
                 if let Some(Err(e)) = video {
                     self.event(

@@ -30,7 +30,11 @@
 //! the pose topics (`/tf`, `/vehicle/pose`, `/vehicle/track`) with Foxglove's protobuf
 //! schemas: the same schemas, encodings and derivation as in a recorded session
 //! ([`rov_session::foxglove::channel_schema`], [`rov_session::encode_json`],
-//! [`rov_session::foxglove::PoseTopics`]). The raw frames (`/pro4/tx`, `/pro4/rx`,
+//! [`rov_session::foxglove::PoseTopics`]). `/camera/video` (`foxglove.CompressedVideo`,
+//! H.264) while the station records video: the encoder's thread offers each access unit
+//! through the recording's [`crate::runtime::recorder::VideoTap`] (a tap attached when the
+//! recording starts; a server started during a recording serves video from the next
+//! one), never through the control thread. The raw frames (`/pro4/tx`, `/pro4/rx`,
 //! encoding `vr-pro4`) are recorded only: no Foxglove panel reads them.
 //!
 //! Log times are Unix nanoseconds: a [`LiveTap`] maps the station's clock to the wall
@@ -61,11 +65,12 @@ pub const QUEUE_CAPACITY: usize = 4096;
 pub const CLIENT_BACKLOG: usize = 1024;
 
 /// Whether a topic is served live: every topic of a session except the raw frames (no
-/// Foxglove panel reads them), `/session/info` (one message at a recording's start) and
-/// `/camera/video` (not fed to the station's records yet).
+/// Foxglove panel reads them) and `/session/info` (one message at a recording's start).
+/// `/camera/video` carries units only while the station records video (the encoder runs
+/// for the recording; its tap offers each unit here too).
 #[must_use]
 pub const fn is_served(topic: Topic) -> bool {
-    !topic.is_raw() && !matches!(topic, Topic::SessionInfo | Topic::Video)
+    !topic.is_raw() && !matches!(topic, Topic::SessionInfo)
 }
 
 /// Why the live server did not start.
@@ -385,9 +390,18 @@ impl Feed<'_> {
 
     fn item(&mut self, t_ns: u64, item: &RecordItem) {
         match item {
-            // Raw frames: no Foxglove panel reads them. Camera video: reaches the
-            // recorder from the encoder's thread, not through this tap (not served live).
-            RecordItem::Raw(..) | RecordItem::Video(..) => {}
+            // Raw frames: no Foxglove panel reads them.
+            RecordItem::Raw(..) => {}
+            // Camera video (from the encoder's thread while recording): the recorded
+            // message, foxglove.CompressedVideo, checked as the writer checks it.
+            RecordItem::Video(_, key_frame, au) => {
+                if self.subscribed(Topic::Video)
+                    && rov_session::foxglove::check_access_unit(au, *key_frame).is_ok()
+                {
+                    let m = rov_session::foxglove::video_message(t_ns, au);
+                    self.log(Topic::Video, t_ns, &rov_session::foxglove::encode(&m));
+                }
+            }
             RecordItem::Nav(_, r) => {
                 self.json(t_ns, r);
                 if let Some(m) = self.poses.nav(t_ns, r) {
@@ -463,13 +477,13 @@ mod tests {
 
     #[test]
     fn a_server_starts_on_a_free_port_and_stops() {
-        // The nine JSON telemetry topics and the three pose topics.
+        // The nine JSON telemetry topics, the three pose topics and the camera video.
         let served: Vec<&str> = Topic::ALL
             .into_iter()
             .filter(|t| is_served(*t))
             .map(Topic::name)
             .collect();
-        assert_eq!(served.len(), 12, "{served:?}");
+        assert_eq!(served.len(), 13, "{served:?}");
         assert!(served.contains(&"/tf") && !served.contains(&"/pro4/rx"));
         let s = LiveServer::start("127.0.0.1:0").unwrap();
         let st = s.status();

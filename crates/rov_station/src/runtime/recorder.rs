@@ -67,13 +67,27 @@ pub struct VideoTap {
     started_ns: u64,
     blocking: bool,
     counters: Arc<Counters>,
+    /// The live Foxglove server's tap when one was attached as the recording started: each
+    /// unit is also offered to it (a non-blocking copy, on the encoder's thread).
+    live: Option<crate::runtime::foxglove_live::LiveTap>,
 }
 
 impl VideoTap {
+    /// The same tap that also serves each unit live on `/camera/video`.
+    #[must_use]
+    pub fn with_live(mut self, live: Option<crate::runtime::foxglove_live::LiveTap>) -> Self {
+        self.live = live;
+        self
+    }
+
     /// Queues one access unit whose `pts_ns` is on the station clock.
     pub fn send(&self, au: rov_video::AccessUnit) {
         let t = au.pts_ns.saturating_sub(self.started_ns);
+        let pts_us = au.pts_ns / 1000;
         let item = RecordItem::Video(t, au.key_frame, au.data);
+        if let Some(l) = &self.live {
+            l.send(pts_us, &item);
+        }
         let g = self
             .tx
             .lock()
@@ -169,6 +183,7 @@ impl Recorder {
             started_ns: self.started_us.saturating_mul(1000),
             blocking: self.blocking,
             counters: Arc::clone(&self.counters),
+            live: None,
         }
     }
 
