@@ -210,6 +210,10 @@ pub struct StationApp {
     pub(crate) browser_seen: usize,
     /// The live Foxglove server (Settings tab).
     pub(crate) foxglove: crate::foxglove_live::FoxgloveState,
+    /// The model files the autopilot panel offers (the user's models folder).
+    pub(crate) models: crate::autopilot_model::ModelsFolder,
+    /// The last autopilot model change and the station's answer.
+    pub(crate) model_switch: crate::autopilot_model::ModelSwitch,
 }
 
 impl std::fmt::Debug for StationApp {
@@ -270,6 +274,8 @@ impl StationApp {
             browser: crate::sessions::SessionBrowser::default(),
             browser_seen: usize::MAX,
             foxglove: crate::foxglove_live::FoxgloveState::default(),
+            models: crate::autopilot_model::ModelsFolder::default(),
+            model_switch: crate::autopilot_model::ModelSwitch::default(),
         };
         app.set_live(live);
         app
@@ -461,6 +467,36 @@ impl StationApp {
         &self.lab
     }
 
+    /// The lab state, to set (for tests) the model the lab holds.
+    pub fn lab_mut(&mut self) -> &mut crate::lab::LabState {
+        &mut self.lab
+    }
+
+    /// The folder of model files the autopilot panel offers (the binary passes the
+    /// user's `models/` next to `station.toml`); scanned now and on the pilot's Rescan.
+    #[must_use]
+    pub fn with_models_dir(mut self, dir: Option<PathBuf>) -> Self {
+        self.set_models_dir(dir);
+        self
+    }
+
+    /// Sets (and scans) the models folder.
+    pub fn set_models_dir(&mut self, dir: Option<PathBuf>) {
+        self.models = crate::autopilot_model::ModelsFolder::scan(dir);
+    }
+
+    /// The model files found in the models folder.
+    #[must_use]
+    pub fn model_files(&self) -> &[PathBuf] {
+        &self.models.files
+    }
+
+    /// The station's answer to the last autopilot model change.
+    #[must_use]
+    pub fn model_switch_result(&self) -> Option<&crate::autopilot_model::SwitchResult> {
+        self.model_switch.result.as_ref()
+    }
+
     pub(crate) fn set_live(&mut self, live: Option<StationHandle>) {
         self.live = live;
         self.live_hist = History::default();
@@ -530,6 +566,30 @@ impl StationApp {
         }
     }
 
+    /// Sends a model for the autopilot (or shows why it could not be loaded); the answer
+    /// is picked out of the station's events.
+    pub(crate) fn send_autopilot_model(
+        &mut self,
+        model: Result<rov_station::AutopilotModel, String>,
+        confirmed: bool,
+    ) {
+        let mut dropped = false;
+        let live = &self.live;
+        self.model_switch.send(
+            |c| {
+                if let Some(h) = live {
+                    dropped = !h.command(c);
+                }
+            },
+            &self.live_view,
+            model,
+            confirmed,
+        );
+        if dropped {
+            self.message = Some("command queue full: command dropped".into());
+        }
+    }
+
     pub(crate) fn replay_cmd(&self, c: rov_station::runtime::ReplayCommand) {
         if let Some(h) = &self.replay {
             h.command(RuntimeCommand::Replay(c));
@@ -565,6 +625,7 @@ impl StationApp {
             h.sync_history(&mut self.replay_hist);
         }
         self.lab.poll();
+        self.model_switch.poll(&self.live_view);
         self.conn.poll();
         self.browser.poll();
     }

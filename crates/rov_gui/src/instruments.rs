@@ -747,7 +747,15 @@ pub fn arm_control(ui: &mut Ui, armed: bool, progress: f64) -> (bool, bool) {
         let r = ui.add(b);
         return (false, r.clicked());
     }
-    let size = vec2(150.0, 38.0);
+    (
+        hold_button(ui, "HOLD TO ARM", vec2(150.0, 38.0), progress),
+        false,
+    )
+}
+
+/// A press-and-hold button (hold to arm, hold to confirm): true while the pointer holds
+/// it; `progress` (0..1, timed by the caller) fills it.
+pub fn hold_button(ui: &mut Ui, text: &str, size: egui::Vec2, progress: f64) -> bool {
     let (rect, resp) = ui.allocate_exact_size(size, Sense::click_and_drag());
     let held = resp.is_pointer_button_down_on();
     let p = ui.painter();
@@ -766,12 +774,12 @@ pub fn arm_control(ui: &mut Ui, armed: bool, progress: f64) -> (bool, bool) {
     p.text(
         rect.center(),
         Align2::CENTER_CENTER,
-        "HOLD TO ARM",
-        egui::FontId::proportional(17.0),
+        text,
+        egui::FontId::proportional((size.y * 0.45).min(17.0)),
         Color32::WHITE,
     );
-    resp.widget_info(|| egui::WidgetInfo::labeled(egui::Role::Button, true, "HOLD TO ARM"));
-    (held, false)
+    resp.widget_info(|| egui::WidgetInfo::labeled(egui::Role::Button, true, text));
+    held
 }
 
 /// A horizontal bar for a stick value (−1..1) with a label.

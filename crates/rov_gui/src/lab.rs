@@ -533,6 +533,7 @@ pub(crate) fn lab_tab(app: &mut StationApp, ui: &mut Ui) {
     if let Some(e) = &lab.error {
         ui.label(RichText::new(e).color(theme::RED));
     }
+    use_for_autopilot(app, ui);
     crate::lab_video::panel(app, ui);
     let lab = &mut app.lab;
     ui.separator();
@@ -630,6 +631,58 @@ pub(crate) fn lab_tab(app: &mut StationApp, ui: &mut Ui) {
         lab.start_remove_effect(e);
     }
     comparison_plots(ui, lab.comparison.as_ref());
+}
+
+/// The lab's model as the autopilot's feedforward and observer model: a click while
+/// disarmed; while armed the station refuses a plain click and the pilot holds the
+/// confirm button for [`crate::autopilot_model::CONFIRM_HOLD_S`].
+fn use_for_autopilot(app: &mut StationApp, ui: &mut Ui) {
+    let Some(m) = app.lab.model.as_ref() else {
+        return;
+    };
+    let label = format!("lab {}", model_label(m));
+    let armed = app.live_view.snapshot.armed;
+    let mut send: Option<bool> = None;
+    ui.horizontal(|ui| {
+        if ui
+            .add_enabled(app.live.is_some(), egui::Button::new("Use for autopilot"))
+            .on_hover_text(format!(
+                "make {label} the autopilot's feedforward and observer model"
+            ))
+            .clicked()
+        {
+            send = Some(false);
+        }
+        if armed {
+            let progress = app.model_switch.confirm_held_s / crate::autopilot_model::CONFIRM_HOLD_S;
+            let held = crate::instruments::hold_button(
+                ui,
+                "HOLD TO CONFIRM",
+                egui::vec2(160.0, 26.0),
+                progress,
+            );
+            let dt = f64::from(ui.input(|i| i.stable_dt));
+            if held {
+                ui.ctx().request_repaint();
+            }
+            if app.model_switch.confirm_hold(held, dt) {
+                send = Some(true);
+            }
+        }
+        ui.label(
+            RichText::new(format!("autopilot uses: {}", app.live_view.model_label))
+                .small()
+                .color(theme::SCALE),
+        );
+        app.model_switch.show(ui);
+    });
+    if let Some(confirmed) = send
+        && let Some(m) = app.lab.model.as_ref()
+    {
+        let plant =
+            rov_station::AutopilotModel::from_vehicle_model(&label, m).map_err(|e| e.to_string());
+        app.send_autopilot_model(plant, confirmed);
+    }
 }
 
 /// The channels the lab's summaries show (when the data has them).

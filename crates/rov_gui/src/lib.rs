@@ -16,6 +16,7 @@
 //! * [`run_native`]: opens the window.
 
 pub mod app;
+pub mod autopilot_model;
 mod connection;
 mod dive;
 pub mod fly;

@@ -175,18 +175,53 @@ pub(crate) fn autopilot_panel(app: &mut StationApp, ui: &mut Ui) {
                         |n| n.to_string_lossy().into_owned(),
                     )
             };
+            // The shipped models, then the models folder's files (picking one loads it
+            // and sends it; the station refuses it while armed or when it is invalid).
+            let mut file: Option<std::path::PathBuf> = None;
+            let mut pick_shipped = false;
+            let mut rescan = false;
             egui::ComboBox::new("model", "model")
-                .selected_text(shown)
+                .selected_text(shown.clone())
                 .width(90.0)
                 .show_ui(ui, |ui| {
                     for m in ModelChoice::ALL {
-                        ui.selectable_value(&mut model, m, m.name());
+                        let on = v.model_label.is_empty() || v.model_label == m.name();
+                        if ui.selectable_label(on && m == v.model, m.name()).clicked() {
+                            model = m;
+                            pick_shipped = true;
+                        }
+                    }
+                    if app.models.dir.is_some() {
+                        ui.separator();
+                        for f in &app.models.files {
+                            let name = f
+                                .file_name()
+                                .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
+                            let r = ui.selectable_label(name == shown, &name);
+                            if r.on_hover_text(f.display().to_string()).clicked() {
+                                file = Some(f.clone());
+                            }
+                        }
+                        if app.models.files.is_empty() {
+                            ui.label(RichText::new("(no model files)").small().color(theme::DIM));
+                        }
+                        rescan = ui.button("Rescan models folder").clicked();
                     }
                 });
-            if model != v.model {
+            if pick_shipped {
                 mode_cmd(app, ModeCommand::SelectModel(model));
             }
+            if rescan {
+                app.models.rescan();
+            }
+            if let Some(f) = file {
+                app.send_autopilot_model(crate::autopilot_model::load_file(&f), false);
+            }
         });
+        app.model_switch.show(ui);
+        if let Some(e) = &app.models.error {
+            ui.label(RichText::new(e).small().color(theme::RED));
+        }
     });
     ui.label(
         RichText::new("Centre the stick to hold, move it to override, release to latch; drag the tapes or type to set.")

@@ -222,7 +222,8 @@ pub fn run_station(
         .with_settings(save_to, cfg.alarms, station)
         .with_gamepad(cfg.pad_map.clone(), cfg.shaping)
         .with_video_settings(cfg.video.clone())
-        .with_foxglove(foxglove, live_server);
+        .with_foxglove(foxglove, live_server)
+        .with_models_dir(crate::config_file::user_models_dir());
     app.connect_handle(live);
     if let Some(e) = fox_error {
         app.set_message(e);

@@ -30,6 +30,12 @@ pub fn user_config_path() -> Option<PathBuf> {
     directories::ProjectDirs::from("", "", "topside").map(|d| d.config_dir().join("station.toml"))
 }
 
+/// The user's models folder (`models/` next to the user's `station.toml`): the autopilot
+/// panel offers its `*.toml` model files.
+pub fn user_models_dir() -> Option<PathBuf> {
+    directories::ProjectDirs::from("", "", "topside").map(|d| d.config_dir().join("models"))
+}
+
 /// Settings read, and where from.
 #[derive(Debug, Clone)]
 pub struct Loaded {
