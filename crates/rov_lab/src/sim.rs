@@ -302,6 +302,9 @@ fn simulate_core(
         }
     }
     let cur = CurrentSample::none();
+    let mut decay_h = f64::NAN;
+    let mut lag_decay = [(0.0, 0.0); MAX_THRUSTERS];
+    let mut filt_decay = [0.0; MAX_FILTERS];
     let mut next_reset = resets.iter().copied().filter(|&r| r > 0).peekable();
     for k in 0..n {
         if next_reset.peek() == Some(&k) {
@@ -325,13 +328,31 @@ fn simulate_core(
         let u = run.inputs[k];
         let target = model.thruster_targets(&u);
         let signals = model.command_signals(&u);
+        // The decay factors depend on the sub-step only; at a steady sample rate they are
+        // the same every step, so they are computed again only when h changes (the same
+        // expressions on the same h: the numbers do not change).
+        if h.to_bits() != decay_h.to_bits() {
+            decay_h = h;
+            for i in 0..n_thr {
+                let tau = lag_taus[i];
+                if tau > 0.0 {
+                    let e = (-h / tau).exp();
+                    lag_decay[i] = (e, tau / h * (1.0 - e));
+                }
+            }
+            for (j, (_, fk)) in filters.iter().enumerate() {
+                let tau = FILTER_TAUS_S.get(*fk as usize).copied().unwrap_or(1.0);
+                if let Some(slot) = filt_decay.get_mut(j) {
+                    *slot = (-h / tau).exp();
+                }
+            }
+        }
         for _ in 0..nsub {
             let mut eff = target;
             for i in 0..n_thr {
                 let tau = lag_taus[i];
                 if tau > 0.0 {
-                    let e = (-h / tau).exp();
-                    let mean_w = tau / h * (1.0 - e);
+                    let (e, mean_w) = lag_decay[i];
                     eff[i] = target[i] + (lag[i] - target[i]) * mean_w;
                     lag[i] = target[i] + (lag[i] - target[i]) * e;
                 } else {
@@ -343,7 +364,10 @@ fn simulate_core(
             for (j, (ci, fk)) in filters.iter().enumerate() {
                 let tau = FILTER_TAUS_S.get(*fk as usize).copied().unwrap_or(1.0);
                 let target = signals.get(*ci as usize).copied().unwrap_or(0.0);
-                let e = (-h / tau).exp();
+                let e = filt_decay
+                    .get(j)
+                    .copied()
+                    .unwrap_or_else(|| (-h / tau).exp());
                 let mean = target + (filt_state[j] - target) * tau / h * (1.0 - e);
                 filt_state[j] = target + (filt_state[j] - target) * e;
                 if let Some(slot) = filt.get_mut(*ci as usize * FILTER_TAUS_S.len() + *fk as usize)

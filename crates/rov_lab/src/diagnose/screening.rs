@@ -155,8 +155,10 @@ pub(super) fn bounded_ls(
     for (j, n) in norms.iter().enumerate() {
         ms.column_mut(j).scale_mut(1.0 / n);
     }
-    let a = ms.transpose() * &ms;
-    let g = ms.transpose() * r0;
+    let mst = ms.transpose();
+    let a = &mst * &ms;
+    let g = &mst * r0;
+    drop(mst);
     let mut active: Vec<usize> = (0..p).collect();
     let mut x_full = vec![0.0; p];
     for _ in 0..=p {
@@ -193,22 +195,19 @@ pub(super) fn bounded_ls(
     Some((res, xs))
 }
 
-/// Bounded least squares of r0 + [B C] δ (null: B alone): returns (residual null,
-/// residual alt, δ of [B C]).
-#[allow(clippy::type_complexity)]
-pub(super) fn ls_gain(
+/// Bounded least squares of r0 + [B C] δ (the alternative; the null, B alone, is
+/// [`bounded_ls`] on B): returns (residual alt, δ of [B C]).
+pub(super) fn ls_alt(
     r0: &DVector<f64>,
     b: &DMatrix<f64>,
     c: &DMatrix<f64>,
     side: &[i8],
-) -> Option<(DVector<f64>, DVector<f64>, Vec<f64>)> {
+) -> Option<(DVector<f64>, Vec<f64>)> {
     let nb = b.ncols();
-    let (res0, _) = bounded_ls(r0, b, side.get(..nb).unwrap_or(&[]))?;
     let mut bc = DMatrix::zeros(b.nrows(), nb + c.ncols());
     bc.view_mut((0, 0), (b.nrows(), nb)).copy_from(b);
     bc.view_mut((0, nb), (c.nrows(), c.ncols())).copy_from(c);
-    let (res1, x) = bounded_ls(r0, &bc, side)?;
-    Some((res0, res1, x))
+    bounded_ls(r0, &bc, side)
 }
 
 /// Prediction horizon of the short screening view and of the first confirmation stage,
@@ -297,6 +296,9 @@ pub(super) fn screen(
     let b = to_mat(&b_idx);
     let rv = DVector::from_column_slice(&r0);
     let mut out = Vec::new();
+    // The null fit (base columns alone) depends on the candidate only through its row
+    // factors: it is computed once per distinct factor set (bit-equal), not per candidate.
+    let mut null_fits: Vec<(Option<Vec<u64>>, DVector<f64>)> = Vec::new();
     for c in cands {
         let idx: Vec<usize> = c
             .params
@@ -314,25 +316,36 @@ pub(super) fn screen(
             scales,
             &candidate_scales(&home_channels(c.effect), scales),
         );
-        let (rv_c, b_c) = match &f {
-            Some(f) => {
-                let mut bb = b.clone();
-                scale_rows(&mut bb, f);
-                scale_rows(&mut cm, f);
-                (rv.component_mul(&DVector::from_column_slice(f)), bb)
-            }
-            None => (rv.clone(), b.clone()),
+        let scaled = f.as_ref().map(|f| {
+            let mut bb = b.clone();
+            scale_rows(&mut bb, f);
+            scale_rows(&mut cm, f);
+            (rv.component_mul(&DVector::from_column_slice(f)), bb)
+        });
+        let (rv, b) = match &scaled {
+            Some((rv_c, b_c)) => (rv_c, b_c),
+            None => (&rv, &b),
         };
-        let (rv, b) = (&rv_c, &b_c);
         let side: Vec<i8> = base_free
             .iter()
             .chain(c.params.iter().filter(|p| eff_index.contains_key(p)))
             .map(|p| bound_side(model, *p))
             .collect();
-        let Some((res0, res1, dx)) = ls_gain(rv, b, &cm, &side) else {
+        let nb = base_free.len();
+        let key: Option<Vec<u64>> = f.as_ref().map(|f| f.iter().map(|x| x.to_bits()).collect());
+        let res0 = match null_fits.iter().find(|(k, _)| *k == key) {
+            Some((_, r)) => r.clone(),
+            None => {
+                let Some((r, _)) = bounded_ls(rv, b, side.get(..nb).unwrap_or(&[])) else {
+                    continue;
+                };
+                null_fits.push((key, r.clone()));
+                r
+            }
+        };
+        let Some((res1, dx)) = ls_alt(rv, b, &cm, &side) else {
             continue;
         };
-        let nb = base_free.len();
         let dc: Vec<f64> = dx.iter().skip(nb).copied().collect();
         let start_base: Vec<f64> = base_free
             .iter()
