@@ -439,7 +439,9 @@ fn run_diagnose(a: DiagnoseArgs) -> anyhow::Result<ExitCode> {
         let red: Vec<String> = f
             .validation_rmse_reduction_pct
             .iter()
-            .map(|(k, v)| format!("{k} {v:+.0} %"))
+            // The JSON carries reductions (positive = better); the text says the change
+            // of the RMSE (negative = better), as the GUI's lab tab does.
+            .map(|(k, v)| format!("{k} {:+.0} %", -v))
             .collect();
         println!(
             "{:>2}. {:<22} {:<15}{}{}",
