@@ -190,6 +190,16 @@ fn cases() -> Vec<Case> {
             expect: vec![],
             params: vec![],
         },
+        // Case 8 on model3 (the base of the truth) and another seed than real_logs.rs.
+        Case {
+            id: 16,
+            base: BaseKind::Model3,
+            seed: 69,
+            hidden: vec![],
+            data: Data::ClosedLoopMessy,
+            expect: vec![],
+            params: vec![],
+        },
         // Effect-free planar truths (false findings on the planar bases).
         Case {
             id: 11,
