@@ -139,39 +139,58 @@ fn bin_of(label: String, vals: &[f64]) -> Option<Bin> {
     })
 }
 
+/// Σ_k a_k b_{k−lag} / n over the overlap (n the shorter length), with missing samples
+/// already set to 0 by [`normalised`] (they add nothing, exactly as if skipped).
 fn corr(a: &[f64], b: &[f64], lag: i64) -> f64 {
-    let n = a.len().min(b.len()) as i64;
-    let (mut s, mut c) = (0.0, 0usize);
-    for k in 0..n {
-        let j = k - lag;
-        if j < 0 || j >= n {
-            continue;
-        }
-        let (x, y) = (a[k as usize], b[j as usize]);
-        if x.is_finite() && y.is_finite() {
-            s += x * y;
-            c += 1;
-        }
+    let n = a.len().min(b.len());
+    let (a, b) = (&a[..n], &b[..n]);
+    let l = lag.unsigned_abs().min(n as u64) as usize;
+    // k − lag ∈ [0, n): for lag ≥ 0, k ∈ [lag, n) against b[0..]; else k ∈ [0, n − |lag|)
+    // against b[|lag|..].
+    let (x, y) = if lag >= 0 {
+        (&a[l..], &b[..n - l])
+    } else {
+        (&a[..n - l], &b[l..])
+    };
+    let mut s = 0.0;
+    for (p, q) in x.iter().zip(y) {
+        s += p * q;
     }
-    if c == 0 { 0.0 } else { s / n as f64 }
+    if n == 0 { 0.0 } else { s / n as f64 }
 }
 
-fn normalised(v: &[f64]) -> Vec<f64> {
+/// A signal normalised to zero mean and unit variance over its finite samples, with its
+/// missing (non-finite) samples set to 0 so that they add nothing to a lagged product sum
+/// (the same sums as skipping them, bit for bit), and the number of finite samples.
+fn normalised(v: &[f64]) -> (Vec<f64>, usize) {
     let f: Vec<f64> = v.iter().copied().filter(|x| x.is_finite()).collect();
     if f.is_empty() {
-        return v.to_vec();
+        return (vec![0.0; v.len()], 0);
     }
     let mean = f.iter().sum::<f64>() / f.len() as f64;
     let sd = (f.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / f.len() as f64)
         .sqrt()
         .max(1e-300);
-    v.iter().map(|x| (x - mean) / sd).collect()
+    let mut finite = 0;
+    let z = v
+        .iter()
+        .map(|x| {
+            let z = (x - mean) / sd;
+            if z.is_finite() {
+                finite += 1;
+                z
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    (z, finite)
 }
 
 /// Autocorrelation of a residual up to `max_lag`.
 pub fn autocorrelation(e: &[f64], max_lag: usize) -> Correlation {
-    let z = normalised(e);
-    let n = z.iter().filter(|x| x.is_finite()).count().max(1) as f64;
+    let (z, finite) = normalised(e);
+    let n = finite.max(1) as f64;
     let lags: Vec<i64> = (0..=max_lag as i64).collect();
     let values: Vec<f64> = lags.iter().map(|l| corr(&z, &z, *l)).collect();
     let bound = Z99 / n.sqrt();
@@ -192,30 +211,59 @@ pub fn autocorrelation(e: &[f64], max_lag: usize) -> Correlation {
 
 /// Cross-correlation of residual and input, lags −L..=L (positive: input leads).
 pub fn cross_correlation(e: &[f64], u: &[f64], max_lag: usize, name: &str) -> Correlation {
-    let ze = normalised(e);
-    let zu = normalised(u);
-    let n = ze.iter().filter(|x| x.is_finite()).count().max(1) as f64;
-    let l = max_lag as i64;
-    let lags: Vec<i64> = (-l..=l).collect();
-    let values: Vec<f64> = lags.iter().map(|k| corr(&ze, &zu, *k)).collect();
-    // Bartlett variance for coloured signals.
-    let mut s = 1.0;
-    for k in 1..=l {
-        s += 2.0 * corr(&ze, &ze, k) * corr(&zu, &zu, k);
+    ResidualAcf::new(e, max_lag).cross_correlation(u, max_lag, name)
+}
+
+/// A residual normalised once, with its autocorrelation up to a lag, for
+/// cross-correlating it with several signals (the Bartlett variance of every
+/// cross-correlation needs the residual's autocorrelation: computed once, not once per
+/// signal).
+pub(crate) struct ResidualAcf {
+    z: Vec<f64>,
+    finite: usize,
+    /// ρ_e(k) for k = 1..=L (index k − 1).
+    acf: Vec<f64>,
+}
+
+impl ResidualAcf {
+    /// The residual `e` with its autocorrelation up to `max_lag`.
+    pub(crate) fn new(e: &[f64], max_lag: usize) -> Self {
+        let (z, finite) = normalised(e);
+        let acf = (1..=max_lag as i64).map(|k| corr(&z, &z, k)).collect();
+        Self { z, finite, acf }
     }
-    let bound = Z99 * s.max(1.0).sqrt() / n.sqrt();
-    let significant_lags = lags
-        .iter()
-        .zip(&values)
-        .filter(|(_, v)| v.abs() > bound)
-        .map(|(l, _)| *l)
-        .collect();
-    Correlation {
-        with: name.into(),
-        lags,
-        values,
-        bound,
-        significant_lags,
+
+    /// [`cross_correlation`] of the residual with `u`, lags −L..=L.
+    pub(crate) fn cross_correlation(&self, u: &[f64], max_lag: usize, name: &str) -> Correlation {
+        let ze = &self.z;
+        let (zu, _) = normalised(u);
+        let n = self.finite.max(1) as f64;
+        let l = max_lag as i64;
+        let lags: Vec<i64> = (-l..=l).collect();
+        let values: Vec<f64> = lags.iter().map(|k| corr(ze, &zu, *k)).collect();
+        // Bartlett variance for coloured signals.
+        let mut s = 1.0;
+        for k in 1..=l {
+            let re = match self.acf.get(k as usize - 1) {
+                Some(v) => *v,
+                None => corr(ze, ze, k),
+            };
+            s += 2.0 * re * corr(&zu, &zu, k);
+        }
+        let bound = Z99 * s.max(1.0).sqrt() / n.sqrt();
+        let significant_lags = lags
+            .iter()
+            .zip(&values)
+            .filter(|(_, v)| v.abs() > bound)
+            .map(|(l, _)| *l)
+            .collect();
+        Correlation {
+            with: name.into(),
+            lags,
+            values,
+            bound,
+            significant_lags,
+        }
     }
 }
 
@@ -322,10 +370,11 @@ pub fn channel_failure(runs: &[Run], preds: &[Prediction], ch: Channel) -> Optio
     let max_lag = ((5.0 / dt).round() as usize).clamp(5, 100);
     let autocorrelation = autocorrelation(&all_e, max_lag);
     let outside = autocorrelation.significant_lags.len() as f64 / max_lag as f64;
+    let acf = ResidualAcf::new(&all_e, max_lag);
     let cross = ["port", "starboard", "vertical"]
         .iter()
         .enumerate()
-        .map(|(i, n)| cross_correlation(&all_e, &inputs[i], max_lag, n))
+        .map(|(i, n)| acf.cross_correlation(&inputs[i], max_lag, n))
         .collect();
     let to_bins = |m: std::collections::BTreeMap<String, Vec<f64>>| -> Vec<Bin> {
         m.into_iter().filter_map(|(k, v)| bin_of(k, &v)).collect()
@@ -367,6 +416,53 @@ pub fn segment_metrics(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A coloured test signal with missing samples.
+    fn gappy(n: usize, seed: f64) -> Vec<f64> {
+        (0..n)
+            .map(|k| {
+                let t = k as f64;
+                if k % 37 == 5 || k % 101 == 0 {
+                    f64::NAN
+                } else {
+                    (0.05 * t + seed).sin() + 0.3 * (1.7 * t * seed).cos()
+                }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn lagged_sums_over_zeroed_gaps_equal_those_skipping_them_bit_for_bit() {
+        // The reference: the sum over the overlap skipping any pair with a missing sample.
+        let skip = |a: &[f64], b: &[f64], lag: i64| -> f64 {
+            let n = a.len().min(b.len()) as i64;
+            let mut s = 0.0;
+            for k in 0..n {
+                let j = k - lag;
+                if j >= 0 && j < n && a[k as usize].is_finite() && b[j as usize].is_finite() {
+                    s += a[k as usize] * b[j as usize];
+                }
+            }
+            s / n as f64
+        };
+        let (a, b) = (gappy(500, 0.3), gappy(480, 1.1));
+        let norm = |v: &[f64]| -> Vec<f64> {
+            let f: Vec<f64> = v.iter().copied().filter(|x| x.is_finite()).collect();
+            let m = f.iter().sum::<f64>() / f.len() as f64;
+            let sd = (f.iter().map(|x| (x - m).powi(2)).sum::<f64>() / f.len() as f64).sqrt();
+            v.iter().map(|x| (x - m) / sd).collect()
+        };
+        let (na, nb) = (norm(&a), norm(&b));
+        let ((za, fa), (zb, _)) = (normalised(&a), normalised(&b));
+        assert_eq!(fa, a.iter().filter(|x| x.is_finite()).count());
+        for lag in -600..=600 {
+            assert_eq!(
+                corr(&za, &zb, lag).to_bits(),
+                skip(&na, &nb, lag).to_bits(),
+                "lag {lag}"
+            );
+        }
+    }
 
     #[test]
     fn quantisation_floor_of_a_lattice_and_of_a_continuous_signal() {

@@ -259,9 +259,10 @@ where
             }
             m
         };
-        let mut a = js.transpose() * &js;
+        // Jᵀ J and Jᵀ r without forming Jᵀ (a copy of the whole Jacobian).
+        let mut a = js.tr_mul(&js);
         let rv = DVector::from_column_slice(&r);
-        let mut g = js.transpose() * rv;
+        let mut g = js.tr_mul(&rv);
         for i in 0..p {
             if let Some((v, s)) = bounds[i].prior
                 && s > 0.0

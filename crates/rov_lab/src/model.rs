@@ -1415,8 +1415,11 @@ impl LabModel {
     ) -> (Vector6, Vector6) {
         match &self.base {
             Base::M3(m) => {
-                let st = ModelState::new(*eta, *nu);
-                let tau = tau_thrust + self.extra_tau(&st);
+                let tau = if self.has_body_fx {
+                    tau_thrust + self.extra_tau(&ModelState::new(*eta, *nu))
+                } else {
+                    *tau_thrust
+                };
                 m.process()
                     .state_derivative(eta, nu, &tau, &self.effect_current(current))
             }

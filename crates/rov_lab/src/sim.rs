@@ -408,8 +408,122 @@ fn simulate_core(
     Ok(())
 }
 
+/// The memo of one diagnosis's run simulations (see [`memo_scope`]).
+struct Memo {
+    /// Addresses of the runs the scope's caller borrows (alive while the scope is).
+    runs: Vec<*const Run>,
+    /// Remembered simulations, most recently used last.
+    entries: std::collections::VecDeque<MemoEntry>,
+}
+
+/// One remembered simulation.
+struct MemoEntry {
+    /// The model in full (its `Debug` text).
+    model: String,
+    run: *const Run,
+    resets: Vec<usize>,
+    prediction: Prediction,
+    /// Whether it was asked for again (the current model of a diagnosis is, many times;
+    /// a finite-difference column never is).
+    reused: bool,
+}
+
+/// Most simulations a [`Memo`] keeps (a training prediction is about 0.5 MB per 10 min
+/// at 20 Hz).
+const MEMO_ENTRIES: usize = 16;
+
+thread_local! {
+    static MEMO: std::cell::RefCell<Option<Memo>> = const { std::cell::RefCell::new(None) };
+}
+
+/// While alive, [`simulate_run`] on this thread remembers its last simulations of the
+/// given runs and returns a remembered prediction instead of simulating the same model
+/// (compared field by field, every parameter exactly) on the same run with the same
+/// resets again. A diagnosis simulates its current model on its training runs many times
+/// over (channel weights, screening, the term search's nulls, confirmations); the
+/// prediction does not depend on the weights.
+pub(crate) struct MemoScope<'a> {
+    prev: Option<Memo>,
+    _runs: std::marker::PhantomData<&'a Run>,
+}
+
+/// Starts a [`MemoScope`] over `runs` (nested scopes restore the outer one on drop).
+pub(crate) fn memo_scope<'a>(runs: &[&'a [Run]]) -> MemoScope<'a> {
+    let memo = Memo {
+        runs: runs
+            .iter()
+            .flat_map(|rs| rs.iter().map(|r| r as *const Run))
+            .collect(),
+        entries: std::collections::VecDeque::new(),
+    };
+    let prev = MEMO.with(|m| m.borrow_mut().replace(memo));
+    MemoScope {
+        prev,
+        _runs: std::marker::PhantomData,
+    }
+}
+
+impl Drop for MemoScope<'_> {
+    fn drop(&mut self) {
+        let prev = self.prev.take();
+        MEMO.with(|m| *m.borrow_mut() = prev);
+    }
+}
+
 /// Simulates a run, re-initialising at the given sorted sample indices (0 is implied).
 pub fn simulate_run(model: &LabModel, run: &Run, resets: &[usize]) -> Result<Prediction, LabError> {
+    let ptr = run as *const Run;
+    let key = MEMO.with(|m| {
+        let mut m = m.borrow_mut();
+        let memo = m.as_mut().filter(|memo| memo.runs.contains(&ptr))?;
+        // The model's every field (Debug prints each number exactly, in its shortest
+        // round-trip form).
+        let key = format!("{model:?}");
+        let at = memo
+            .entries
+            .iter()
+            .rposition(|e| e.run == ptr && e.resets.as_slice() == resets && e.model == key);
+        // A hit moves to the back (most recently used).
+        let hit = at.and_then(|i| memo.entries.remove(i)).map(|mut e| {
+            e.reused = true;
+            let p = e.prediction.clone();
+            memo.entries.push_back(e);
+            p
+        });
+        Some((key, hit))
+    });
+    match key {
+        Some((_, Some(hit))) => Ok(hit),
+        Some((key, None)) => {
+            let p = simulate_uncached(model, run, resets)?;
+            MEMO.with(|m| {
+                if let Some(memo) = m.borrow_mut().as_mut() {
+                    if memo.entries.len() >= MEMO_ENTRIES {
+                        // The least recently used of those never asked for again, else
+                        // the least recently used.
+                        let i = memo.entries.iter().position(|e| !e.reused).unwrap_or(0);
+                        memo.entries.remove(i);
+                    }
+                    memo.entries.push_back(MemoEntry {
+                        model: key,
+                        run: ptr,
+                        resets: resets.to_vec(),
+                        prediction: p.clone(),
+                        reused: false,
+                    });
+                }
+            });
+            Ok(p)
+        }
+        None => simulate_uncached(model, run, resets),
+    }
+}
+
+fn simulate_uncached(
+    model: &LabModel,
+    run: &Run,
+    resets: &[usize],
+) -> Result<Prediction, LabError> {
     let chans = compared_channels(model, run);
     let n = run.len();
     let mut out = Prediction::default();
@@ -417,8 +531,14 @@ pub fn simulate_run(model: &LabModel, run: &Run, resets: &[usize]) -> Result<Pre
         out.y[ch_index(*ch)] = Some(Vec::with_capacity(n));
     }
     let t0 = run.t.first().copied().unwrap_or(0.0);
+    // The previous commands matter only to a sensor effect (thruster interference).
+    let sensor_fx = model.has_sensor_effects();
     simulate_core(model, run, resets, |k, s| {
-        let pc = prev_targets(model, run, k);
+        let pc = if sensor_fx {
+            prev_targets(model, run, k)
+        } else {
+            [0.0; MAX_THRUSTERS]
+        };
         let t_rel = run.t[k] - t0;
         for ch in &chans {
             if let Some(v) = out.y[ch_index(*ch)].as_mut() {
@@ -469,6 +589,51 @@ mod tests {
             "step",
         )
         .unwrap()
+    }
+
+    fn memo_len() -> Option<(usize, usize)> {
+        MEMO.with(|m| {
+            m.borrow().as_ref().map(|memo| {
+                (
+                    memo.entries.len(),
+                    memo.entries.iter().filter(|e| e.reused).count(),
+                )
+            })
+        })
+    }
+
+    #[test]
+    fn a_remembered_simulation_is_the_same_and_any_change_simulates_again() {
+        let runs = vec![step_run()];
+        let m = LabModel::default_base(crate::BaseKind::Model3).unwrap();
+        let fresh = simulate_run(&m, &runs[0], &[0]).unwrap();
+        {
+            let _scope = memo_scope(&[&runs]);
+            let a = simulate_run(&m, &runs[0], &[0]).unwrap();
+            assert_eq!(memo_len(), Some((1, 0)));
+            let b = simulate_run(&m, &runs[0], &[0]).unwrap();
+            assert_eq!(
+                memo_len(),
+                Some((1, 1)),
+                "the same model and resets: remembered"
+            );
+            for ch in Channel::ALL {
+                assert_eq!(a.channel(ch), fresh.channel(ch));
+                assert_eq!(b.channel(ch), fresh.channel(ch));
+            }
+            // Other resets, or a parameter changed in its last bit, simulate again.
+            simulate_run(&m, &runs[0], &[0, 100]).unwrap();
+            let v = m.get(Param::LagTau).unwrap_or(0.0);
+            let m2 = m.with(&[Param::LagTau], &[v + 1e-12]).unwrap();
+            let c = simulate_run(&m2, &runs[0], &[0]).unwrap();
+            assert_eq!(memo_len(), Some((3, 1)));
+            assert_ne!(c.channel(Channel::Depth), fresh.channel(Channel::Depth));
+            // A run outside the scope's runs is never remembered.
+            let other = step_run();
+            simulate_run(&m, &other, &[0]).unwrap();
+            assert_eq!(memo_len(), Some((3, 1)));
+        }
+        assert_eq!(memo_len(), None, "the scope ends with its owner");
     }
 
     #[test]

@@ -17,6 +17,7 @@
 //! file's command channels.
 
 use rov_dynamics::Vector6;
+use rov_dynamics::math::sin_cos;
 
 /// A signal a term is built from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -36,6 +37,18 @@ pub enum Angle {
     Pitch,
     /// Heading ψ.
     Heading,
+}
+
+impl Angle {
+    /// Its index in η.
+    #[inline]
+    pub fn eta_index(self) -> usize {
+        match self {
+            Angle::Roll => 3,
+            Angle::Pitch => 4,
+            Angle::Heading => 5,
+        }
+    }
 }
 
 /// Time constants of the filtered-command terms, s.
@@ -127,16 +140,10 @@ impl TermKind {
                 .get(i as usize * FILTER_TAUS_S.len() + k as usize)
                 .copied()
                 .unwrap_or(0.0),
-            TermKind::Sin(a) => match a {
-                Angle::Roll => x.eta[3].sin(),
-                Angle::Pitch => x.eta[4].sin(),
-                Angle::Heading => x.eta[5].sin(),
-            },
-            TermKind::Cos(a) => match a {
-                Angle::Roll => x.eta[3].cos(),
-                Angle::Pitch => x.eta[4].cos(),
-                Angle::Heading => x.eta[5].cos(),
-            },
+            // The dynamics' own sin/cos (about three times faster than libm's, to about
+            // one ulp): a term runs on every RK4 stage of every simulation.
+            TermKind::Sin(a) => sin_cos(x.eta[a.eta_index()]).0,
+            TermKind::Cos(a) => sin_cos(x.eta[a.eta_index()]).1,
             TermKind::Const => 1.0,
         }
     }

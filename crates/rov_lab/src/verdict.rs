@@ -58,7 +58,7 @@ use std::collections::BTreeMap;
 use rov_dynamics::models::Channel;
 use serde::Serialize;
 
-use crate::analysis::{autocorrelation, cross_correlation};
+use crate::analysis::autocorrelation;
 use crate::calibrate::bounds_for;
 use crate::data::{N_CHANNELS, Run, ch_index, ch_name, ch_unit};
 use crate::evaluate::Evaluation;
@@ -239,7 +239,9 @@ pub fn chi2_quantile_per_dof(p: f64, k: f64) -> f64 {
 /// summed over the lags before the pooled autocorrelation first turns negative
 /// (at most `max_lag`).
 pub fn effective_n_bartlett(pieces: &[Vec<f64>], max_lag: usize) -> f64 {
-    let mut c = vec![0.0; max_lag + 1];
+    // Each piece centred on its own mean, missing samples set to 0 (they add nothing to
+    // a lagged product sum, exactly as if skipped).
+    let mut centred: Vec<Vec<f64>> = Vec::new();
     let mut n = 0usize;
     for e in pieces {
         let f: Vec<f64> = e.iter().copied().filter(|x| x.is_finite()).collect();
@@ -247,22 +249,33 @@ pub fn effective_n_bartlett(pieces: &[Vec<f64>], max_lag: usize) -> f64 {
             continue;
         }
         let mean = f.iter().sum::<f64>() / f.len() as f64;
-        for (lag, ck) in c.iter_mut().enumerate() {
-            for k in lag..e.len() {
-                let (a, b) = (e[k], e[k - lag]);
-                if a.is_finite() && b.is_finite() {
-                    *ck += (a - mean) * (b - mean);
+        centred.push(
+            e.iter()
+                .map(|x| if x.is_finite() { x - mean } else { 0.0 })
+                .collect(),
+        );
+        n += f.len();
+    }
+    // The pooled autocovariance at one lag (pieces in order, samples in order).
+    let cov = |lag: usize| -> f64 {
+        let mut c = 0.0;
+        for d in &centred {
+            if lag < d.len() {
+                for (a, b) in d[lag..].iter().zip(d) {
+                    c += a * b;
                 }
             }
         }
-        n += f.len();
-    }
-    if n == 0 || c[0] <= 0.0 {
+        c
+    };
+    let c0 = cov(0);
+    if n == 0 || c0 <= 0.0 {
         return n as f64;
     }
+    // Lags one at a time, up to the first non-positive one (the later ones do not count).
     let mut s = 0.0;
-    for ck in c.iter().skip(1) {
-        let rho = ck / c[0];
+    for lag in 1..=max_lag {
+        let rho = cov(lag) / c0;
         if rho <= 0.0 {
             break;
         }
@@ -407,6 +420,7 @@ fn residuals_of(runs: &[Run], preds: &[Prediction], ch: Channel) -> Vec<Vec<f64>
 /// Significant correlations of a residual with the signals, strongest first.
 fn correlates(e: &[Vec<f64>], sigs: &[Signal], dt: f64, max_lag: usize) -> Vec<Correlate> {
     let flat_e: Vec<f64> = e.iter().flatten().copied().collect();
+    let acf = crate::analysis::ResidualAcf::new(&flat_e, max_lag.max(1));
     let mut out = Vec::new();
     for s in sigs {
         let flat_s: Vec<f64> = s.values.iter().flatten().copied().collect();
@@ -422,7 +436,7 @@ fn correlates(e: &[Vec<f64>], sigs: &[Signal], dt: f64, max_lag: usize) -> Vec<C
             continue;
         }
         let lag = if s.input { max_lag } else { 0 };
-        let c = cross_correlation(&flat_e, &flat_s, lag.max(1), &s.name);
+        let c = acf.cross_correlation(&flat_s, lag.max(1), &s.name);
         let best = c
             .lags
             .iter()
@@ -803,6 +817,67 @@ pub fn documented_bounds(model: &LabModel, params: &[Param]) -> Vec<crate::lm::B
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn effective_sample_size_equals_the_all_lags_form_bit_for_bit() {
+        // The form computing every lag, skipping pairs with a missing sample.
+        let reference = |pieces: &[Vec<f64>], max_lag: usize| -> f64 {
+            let mut c = vec![0.0; max_lag + 1];
+            let mut n = 0usize;
+            for e in pieces {
+                let f: Vec<f64> = e.iter().copied().filter(|x| x.is_finite()).collect();
+                if f.is_empty() {
+                    continue;
+                }
+                let mean = f.iter().sum::<f64>() / f.len() as f64;
+                for (lag, ck) in c.iter_mut().enumerate() {
+                    for k in lag..e.len() {
+                        let (a, b) = (e[k], e[k - lag]);
+                        if a.is_finite() && b.is_finite() {
+                            *ck += (a - mean) * (b - mean);
+                        }
+                    }
+                }
+                n += f.len();
+            }
+            if n == 0 || c[0] <= 0.0 {
+                return n as f64;
+            }
+            let mut s = 0.0;
+            for ck in c.iter().skip(1) {
+                let rho = ck / c[0];
+                if rho <= 0.0 {
+                    break;
+                }
+                s += rho;
+            }
+            (n as f64 / (1.0 + 2.0 * s)).clamp(1.0, n as f64)
+        };
+        let piece = |n: usize, w: f64| -> Vec<f64> {
+            (0..n)
+                .map(|k| {
+                    if k % 29 == 3 {
+                        f64::NAN
+                    } else {
+                        (w * k as f64).sin() + 0.2 * (3.1 * k as f64).cos()
+                    }
+                })
+                .collect()
+        };
+        let pieces = vec![
+            piece(400, 0.05),
+            vec![f64::NAN; 7],
+            piece(250, 0.2),
+            piece(3, 0.1),
+        ];
+        for max_lag in [0, 1, 5, 50, 200, 500] {
+            assert_eq!(
+                effective_n_bartlett(&pieces, max_lag).to_bits(),
+                reference(&pieces, max_lag).to_bits(),
+                "max lag {max_lag}"
+            );
+        }
+    }
 
     #[test]
     fn chi_square_quantiles_match_tables() {

@@ -157,6 +157,7 @@ pub fn diagnose(
             detail: "diagnose needs at least one training and one validation run".into(),
         });
     }
+    let _memo = crate::sim::memo_scope(&[train, val]);
     let lm_opts = LmOptions {
         max_iter: opts.calibration_iterations,
         threads: opts.threads,
@@ -794,6 +795,7 @@ pub fn add_to_model(
             });
         }
     }
+    let _memo = crate::sim::memo_scope(&[train, val]);
     let lm_opts = LmOptions {
         max_iter: opts.calibration_iterations,
         threads: opts.threads,

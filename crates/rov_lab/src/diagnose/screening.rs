@@ -140,25 +140,29 @@ pub(super) fn bound_side(model: &LabModel, p: Param) -> i8 {
 
 /// Bounded linear least squares of r0 + M δ (columns normalised, tiny ridge): a column
 /// whose step would leave its bound (`side`, see [`bound_side`]) is held at zero and the
-/// rest refitted (active set). Returns the residual and δ.
+/// rest refitted (active set). Returns the residual and δ. (The screening itself works
+/// on cached Gram blocks, see [`NullBlock`].)
+#[cfg(test)]
 pub(super) fn bounded_ls(
     r0: &DVector<f64>,
     m: &DMatrix<f64>,
     side: &[i8],
 ) -> Option<(DVector<f64>, Vec<f64>)> {
-    let p = m.ncols();
-    if p == 0 {
+    if m.ncols() == 0 {
         return Some((r0.clone(), Vec::new()));
     }
-    let norms: Vec<f64> = (0..p).map(|j| m.column(j).norm().max(1e-300)).collect();
-    let mut ms = m.clone();
-    for (j, n) in norms.iter().enumerate() {
-        ms.column_mut(j).scale_mut(1.0 / n);
-    }
-    let mst = ms.transpose();
-    let a = &mst * &ms;
-    let g = &mst * r0;
-    drop(mst);
+    let x = bounded_ls_gram(&m.tr_mul(m), &m.tr_mul(r0), side)?;
+    let res = r0 + m * DVector::from_column_slice(&x);
+    Some((res, x))
+}
+
+/// [`bounded_ls`] from the normal equations: the Gram matrix A = MᵀM and g = Mᵀr0 of the
+/// problem r0 + M δ (the columns normalised here by √A_jj). Returns δ.
+pub(super) fn bounded_ls_gram(a: &DMatrix<f64>, g: &DVector<f64>, side: &[i8]) -> Option<Vec<f64>> {
+    let p = a.ncols();
+    let norms: Vec<f64> = (0..p)
+        .map(|j| a[(j, j)].max(0.0).sqrt().max(1e-300))
+        .collect();
     let mut active: Vec<usize> = (0..p).collect();
     let mut x_full = vec![0.0; p];
     for _ in 0..=p {
@@ -170,9 +174,9 @@ pub(super) fn bounded_ls(
         let mut sub = DMatrix::zeros(k, k);
         let mut gs = DVector::zeros(k);
         for (r, &i) in active.iter().enumerate() {
-            gs[r] = -g[i];
+            gs[r] = -g[i] / norms[i];
             for (c, &j) in active.iter().enumerate() {
-                sub[(r, c)] = a[(i, j)];
+                sub[(r, c)] = a[(i, j)] / (norms[i] * norms[j]);
             }
             sub[(r, r)] += 1e-9;
         }
@@ -189,25 +193,92 @@ pub(super) fn bounded_ls(
             break;
         }
     }
-    let xv = DVector::from_column_slice(&x_full);
-    let res = r0 + &ms * &xv;
-    let xs = x_full.iter().zip(&norms).map(|(v, n)| v / n).collect();
-    Some((res, xs))
+    Some(x_full.iter().zip(&norms).map(|(v, n)| v / n).collect())
 }
 
-/// Bounded least squares of r0 + [B C] δ (the alternative; the null, B alone, is
-/// [`bounded_ls`] on B): returns (residual alt, δ of [B C]).
-pub(super) fn ls_alt(
-    r0: &DVector<f64>,
-    b: &DMatrix<f64>,
-    c: &DMatrix<f64>,
-    side: &[i8],
-) -> Option<(DVector<f64>, Vec<f64>)> {
-    let nb = b.ncols();
-    let mut bc = DMatrix::zeros(b.nrows(), nb + c.ncols());
-    bc.view_mut((0, 0), (b.nrows(), nb)).copy_from(b);
-    bc.view_mut((0, nb), (c.nrows(), c.ncols())).copy_from(c);
-    bounded_ls(r0, &bc, side)
+/// The null of a screening (the base columns B alone, rows weighted for a candidate's
+/// channel weights) with what every alternative [B C] reuses: the weighted B and r0,
+/// BᵀB, Bᵀr0 and the null's residual.
+struct NullBlock {
+    /// The row factors it was weighted with (bit patterns; `None` = unweighted).
+    key: Option<Vec<u64>>,
+    /// Weighted B and r0 (`None`: the unweighted ones).
+    weighted: Option<(DMatrix<f64>, DVector<f64>)>,
+    btb: DMatrix<f64>,
+    btr: DVector<f64>,
+    res0: DVector<f64>,
+}
+
+impl NullBlock {
+    fn new(
+        key: Option<Vec<u64>>,
+        weighted: Option<(DMatrix<f64>, DVector<f64>)>,
+        b0: &DMatrix<f64>,
+        r0: &DVector<f64>,
+        side: &[i8],
+    ) -> Option<Self> {
+        let (b, r) = match &weighted {
+            Some((b, r)) => (b, r),
+            None => (b0, r0),
+        };
+        let btb = b.tr_mul(b);
+        let btr = b.tr_mul(r);
+        let res0 = if b.ncols() == 0 {
+            r.clone()
+        } else {
+            let x = bounded_ls_gram(&btb, &btr, side)?;
+            r + b * DVector::from_column_slice(&x)
+        };
+        Some(Self {
+            key,
+            weighted,
+            btb,
+            btr,
+            res0,
+        })
+    }
+
+    /// The weighted B and r0.
+    fn parts<'a>(
+        &'a self,
+        b0: &'a DMatrix<f64>,
+        r0: &'a DVector<f64>,
+    ) -> (&'a DMatrix<f64>, &'a DVector<f64>) {
+        match &self.weighted {
+            Some((b, r)) => (b, r),
+            None => (b0, r0),
+        }
+    }
+
+    /// Bounded least squares of r0 + [B C] δ from the cached blocks (only BᵀC, CᵀC and
+    /// Cᵀr0 are new): the alternative's residual and δ.
+    fn alt(
+        &self,
+        b0: &DMatrix<f64>,
+        r0: &DVector<f64>,
+        c: &DMatrix<f64>,
+        side: &[i8],
+    ) -> Option<(DVector<f64>, Vec<f64>)> {
+        let (b, r) = self.parts(b0, r0);
+        let (nb, nc) = (b.ncols(), c.ncols());
+        let btc = b.tr_mul(c);
+        let ctc = c.tr_mul(c);
+        let ctr = c.tr_mul(r);
+        let p = nb + nc;
+        let mut a = DMatrix::zeros(p, p);
+        let mut g = DVector::zeros(p);
+        a.view_mut((0, 0), (nb, nb)).copy_from(&self.btb);
+        a.view_mut((0, nb), (nb, nc)).copy_from(&btc);
+        a.view_mut((nb, 0), (nc, nb)).copy_from(&btc.transpose());
+        a.view_mut((nb, nb), (nc, nc)).copy_from(&ctc);
+        g.rows_mut(0, nb).copy_from(&self.btr);
+        g.rows_mut(nb, nc).copy_from(&ctr);
+        let x = bounded_ls_gram(&a, &g, side)?;
+        let mut res = r.clone();
+        res.gemv(1.0, b, &DVector::from_column_slice(&x[..nb]), 1.0);
+        res.gemv(1.0, c, &DVector::from_column_slice(&x[nb..]), 1.0);
+        Some((res, x))
+    }
 }
 
 /// Prediction horizon of the short screening view and of the first confirmation stage,
@@ -298,7 +369,7 @@ pub(super) fn screen(
     let mut out = Vec::new();
     // The null fit (base columns alone) depends on the candidate only through its row
     // factors: it is computed once per distinct factor set (bit-equal), not per candidate.
-    let mut null_fits: Vec<(Option<Vec<u64>>, DVector<f64>)> = Vec::new();
+    let mut null_fits: Vec<NullBlock> = Vec::new();
     for c in cands {
         let idx: Vec<usize> = c
             .params
@@ -316,16 +387,9 @@ pub(super) fn screen(
             scales,
             &candidate_scales(&home_channels(c.effect), scales),
         );
-        let scaled = f.as_ref().map(|f| {
-            let mut bb = b.clone();
-            scale_rows(&mut bb, f);
+        if let Some(f) = &f {
             scale_rows(&mut cm, f);
-            (rv.component_mul(&DVector::from_column_slice(f)), bb)
-        });
-        let (rv, b) = match &scaled {
-            Some((rv_c, b_c)) => (rv_c, b_c),
-            None => (&rv, &b),
-        };
+        }
         let side: Vec<i8> = base_free
             .iter()
             .chain(c.params.iter().filter(|p| eff_index.contains_key(p)))
@@ -333,19 +397,31 @@ pub(super) fn screen(
             .collect();
         let nb = base_free.len();
         let key: Option<Vec<u64>> = f.as_ref().map(|f| f.iter().map(|x| x.to_bits()).collect());
-        let res0 = match null_fits.iter().find(|(k, _)| *k == key) {
-            Some((_, r)) => r.clone(),
+        let null_at = match null_fits.iter().position(|n| n.key == key) {
+            Some(i) => i,
             None => {
-                let Some((r, _)) = bounded_ls(rv, b, side.get(..nb).unwrap_or(&[])) else {
+                let weighted = f.as_ref().map(|f| {
+                    let mut bb = b.clone();
+                    scale_rows(&mut bb, f);
+                    (bb, rv.component_mul(&DVector::from_column_slice(f)))
+                });
+                let Some(nf) =
+                    NullBlock::new(key, weighted, &b, &rv, side.get(..nb).unwrap_or(&[]))
+                else {
                     continue;
                 };
-                null_fits.push((key, r.clone()));
-                r
+                null_fits.push(nf);
+                null_fits.len() - 1
             }
         };
-        let Some((res1, dx)) = ls_alt(rv, b, &cm, &side) else {
+        let Some(null) = null_fits.get(null_at) else {
             continue;
         };
+        let res0 = &null.res0;
+        let Some((res1, dx)) = null.alt(&b, &rv, &cm, &side) else {
+            continue;
+        };
+        let (b, _) = null.parts(&b, &rv);
         let dc: Vec<f64> = dx.iter().skip(nb).copied().collect();
         let start_base: Vec<f64> = base_free
             .iter()
