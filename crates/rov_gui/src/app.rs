@@ -370,6 +370,13 @@ impl StationApp {
         self.recordings.last()
     }
 
+    /// The scroll areas of the last frame: id and how many points of their content did
+    /// not fit (see [`crate::layout::scroll`]).
+    #[must_use]
+    pub fn scroll_hidden(&self) -> &[(String, f32)] {
+        &self.layout.scroll_hidden
+    }
+
     /// Controls the last frame cut off (see [`crate::layout`]).
     #[must_use]
     pub fn clipped_widgets(&self, ctx: &egui::Context) -> Vec<crate::layout::ClippedWidget> {
@@ -638,6 +645,7 @@ impl StationApp {
         }
         self.poll();
         self.layout.scroll_viewports.clear();
+        self.layout.scroll_hidden.clear();
         self.layout.main_rect = None;
         self.keyboard(ui);
         self.top_bar(ui);

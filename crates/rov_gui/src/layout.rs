@@ -20,6 +20,9 @@ pub struct LayoutAudit {
     pub main_rect: Option<Rect>,
     /// The viewports of the scroll areas drawn this frame.
     pub scroll_viewports: Vec<Rect>,
+    /// Each scroll area's id and how much of its content did not fit its viewport,
+    /// points (0 when all of it shows without scrolling).
+    pub scroll_hidden: Vec<(String, f32)>,
 }
 
 /// A control cut off by the layout.
@@ -49,6 +52,8 @@ pub fn scroll<R>(
         .auto_shrink([false, true])
         .show(ui, |ui| add(app, ui));
     app.layout.scroll_viewports.push(out.inner_rect);
+    let hidden = (out.content_size.y - out.inner_rect.height()).max(0.0);
+    app.layout.scroll_hidden.push((id.to_owned(), hidden));
     out.inner
 }
 

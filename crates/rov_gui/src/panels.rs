@@ -478,17 +478,30 @@ pub(crate) fn recording_control(app: &mut StationApp, ui: &mut Ui) {
             }
             None => {
                 ui.label(RichText::new("NOT RECORDING").strong().color(theme::AMBER));
-                if let Some(p) = &r.last_file {
+                if r.finishing.is_empty()
+                    && let Some(p) = &r.last_file
+                {
                     let name = p
                         .file_name()
                         .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
                     ui.label(
-                        RichText::new(format!("last: {name}"))
+                        RichText::new(format!("saved: {name}"))
                             .small()
                             .color(theme::DIM),
                     );
                 }
             }
+        }
+        // Stopped recordings still being written out (the station's finisher threads).
+        for p in &r.finishing {
+            let name = p
+                .file_name()
+                .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
+            ui.label(
+                RichText::new(format!("saving {name}…"))
+                    .small()
+                    .color(theme::AMBER),
+            );
         }
         if let Some(e) = &r.error {
             ui.label(RichText::new(e).small().color(theme::AMBER));

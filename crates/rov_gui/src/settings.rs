@@ -190,9 +190,9 @@ pub(crate) fn settings_tab(app: &mut StationApp, ui: &mut Ui) {
                 &target,
                 &mut app.message,
             );
-            left.separator();
-            crate::foxglove_live::section(app, left);
 
+            // The right column holds the alarm limits and the live server, so the whole
+            // tab fits a 1024×600 window without scrolling.
             right.label(RichText::new("Alarm limits").strong().color(theme::SCALE));
             alarm_limits(right, &mut app.alarm_limits);
             let bad = limits_ordered(&app.alarm_limits);
@@ -237,6 +237,8 @@ pub(crate) fn settings_tab(app: &mut StationApp, ui: &mut Ui) {
                     );
                 }
             });
+            right.separator();
+            crate::foxglove_live::section(app, right);
         });
         if choose_folder && let Some(d) = app.backend.pick_folder("Recordings folder") {
             app.station.recordings_dir = d;

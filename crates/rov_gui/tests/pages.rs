@@ -243,8 +243,9 @@ fn the_gamepad_page_shows_raw_and_shaped_and_applies_the_shaping() {
 }
 
 /// Every tab at the smallest and the largest window a pilot uses: no control cut off
-/// (egui's clipped rectangles; scroll areas excepted), and the Fly tab's main view fills
-/// the space left by the side panel (no empty band). Snapshots of each.
+/// (egui's clipped rectangles; scroll areas excepted), the Fly tab's main view fills
+/// the space left by the side panel (no empty band), and the Settings tab needs no
+/// scrolling. Snapshots of each.
 fn every_tab_fits(w: f32, h: f32) {
     let mut problems = Vec::new();
     let mut r = common::rig_sized(&format!("size{w}/size.mcap"), egui::vec2(w, h));
@@ -283,6 +284,17 @@ fn every_tab_fits(w: f32, h: f32) {
                 "{w}x{h} {name}: {:?} at {:?} visible {:?}",
                 c.label, c.rect, c.visible
             ));
+        }
+        // The Settings tab shows all of itself without scrolling (two columns).
+        if tab == Tab::Settings {
+            for (id, hidden) in r.harness.state().scroll_hidden() {
+                if *hidden > 0.5 {
+                    problems.push(format!("{w}x{h} {name}: {id} hides {hidden:.0} points"));
+                }
+            }
+            if r.harness.state().scroll_hidden().is_empty() {
+                problems.push(format!("{w}x{h} {name}: no scroll area recorded"));
+            }
         }
         if tab == Tab::Fly {
             let main = r.harness.state().main_view_rect().unwrap();

@@ -486,17 +486,20 @@ impl Run {
                 y[ch_index(ch)] = Some(v);
             }
         }
+        // Isolated spikes (a sample far from both neighbours and from the local median)
+        // are excluded before anything is estimated from the channel; an angle sample
+        // interpolated across the wrap by the log's resampler counts as one (found
+        // before unwrapping, which would make it half of a 360° step).
+        let mut spikes = [0usize; N_CHANNELS];
         for ch in [Channel::Heading, Channel::Roll] {
             if let Some(h) = y[ch_index(ch)].as_mut() {
+                spikes[ch_index(ch)] = crate::ingest::exclude_wrap_interpolations(h);
                 unwrap_deg(h);
             }
         }
-        // Isolated spikes (a sample far from both neighbours and from the local median)
-        // are excluded before anything is estimated from the channel.
-        let mut spikes = [0usize; N_CHANNELS];
         for (i, v) in y.iter_mut().enumerate() {
             if let Some(v) = v.as_mut() {
-                spikes[i] = crate::ingest::exclude_spikes(v);
+                spikes[i] += crate::ingest::exclude_spikes(v);
             }
         }
         let mut noise = [0.0; N_CHANNELS];

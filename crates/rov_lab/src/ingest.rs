@@ -19,6 +19,14 @@
 //!   must also exceed [`SPIKE_FLANK_RATIO`] times the signal's own change between the
 //!   samples just outside it, so the sharp tip of a real, nearly noise-free signal (a
 //!   yaw rate reversing under an autopilot) is not taken for a spike.
+//! * **Angles interpolated across the wrap.** A log resampled by linear interpolation of
+//!   a wrapped angle (heading or roll in ±180°) gets, where the angle wraps, a sample
+//!   half-way between +180° and −180°: about 180° from the truth. Unwrapped, it is not a
+//!   spike but half of a 360° step, so it is found before unwrapping
+//!   ([`exclude_wrap_interpolations`]: its neighbours agree within [`WRAP_GLITCH_DEG`]
+//!   modulo 360° while their raw values differ by more than 360° minus that, and it lies
+//!   between them in raw value but more than a quarter turn from both modulo 360°) and
+//!   counted with the channel's spikes.
 //! * **Closed loop.** A command whose sample-to-sample changes follow the measured outputs
 //!   (an autopilot reacting to depth or heading, [`feedback_links`]) marks the run as
 //!   closed-loop. The diagnosis then judges on multiple shooting only: in a free run the
@@ -60,6 +68,36 @@ fn median(v: &mut [f64]) -> Option<f64> {
     }
     v.sort_by(f64::total_cmp);
     Some(v[v.len() / 2])
+}
+
+/// Neighbours of a wrap interpolation agree within this (deg, modulo 360): the vehicle
+/// turns less than that in two sample intervals.
+pub const WRAP_GLITCH_DEG: f64 = 60.0;
+
+/// Excludes (sets NaN) the samples of a wrapped angle channel (deg, before unwrapping)
+/// that a resampler interpolated across the ±180° wrap; returns how many (module docs).
+pub fn exclude_wrap_interpolations(v: &mut [f64]) -> usize {
+    let wrap = crate::data::wrap180;
+    let mut bad = Vec::new();
+    for k in 1..v.len().saturating_sub(1) {
+        let (a, c, b) = (v[k - 1], v[k], v[k + 1]);
+        if !(a.is_finite() && b.is_finite() && c.is_finite()) {
+            continue;
+        }
+        let between = c > a.min(b) && c < a.max(b);
+        if (b - a).abs() > 360.0 - WRAP_GLITCH_DEG
+            && wrap(b - a).abs() < WRAP_GLITCH_DEG
+            && between
+            && wrap(c - a).abs() > 90.0
+            && wrap(c - b).abs() > 90.0
+        {
+            bad.push(k);
+        }
+    }
+    for k in &bad {
+        v[*k] = f64::NAN;
+    }
+    bad.len()
 }
 
 /// Excludes isolated spikes from a channel (sets them NaN); returns how many samples.
@@ -598,6 +636,30 @@ mod tests {
                 (k as f64 * 0.01).sin() * 3.0 + 0.02 * (s - 6.0)
             })
             .collect()
+    }
+
+    #[test]
+    fn a_heading_interpolated_across_the_wrap_is_excluded() {
+        // 146°, 151°, then the resampler's mid value between 156° and −204° (≡ 156°).
+        let mut v = vec![141.0, 146.0, 151.0, -28.0, -203.4, -198.0, -193.0];
+        assert_eq!(exclude_wrap_interpolations(&mut v), 1);
+        assert!(v[3].is_nan());
+        assert!(v.iter().enumerate().all(|(k, x)| k == 3 || x.is_finite()));
+        // The same in a 0–360° log: the mid value between 359° and 1°.
+        let mut v = vec![357.0, 359.0, 180.0, 1.0, 3.0];
+        assert_eq!(exclude_wrap_interpolations(&mut v), 1);
+        assert!(v[2].is_nan());
+        // A real crossing of ±180° (no mid value), a fast turn and a slow signal stay.
+        for mut w in [
+            vec![170.0, 175.0, -179.0, -174.0],
+            vec![0.0, 60.0, 120.0, 180.0, 240.0],
+            vec![170.0, 175.0, -179.0, 5.0, -174.0],
+            vec![10.0, 10.5, 11.0, 11.5],
+        ] {
+            let before = w.clone();
+            assert_eq!(exclude_wrap_interpolations(&mut w), 0);
+            assert_eq!(w, before);
+        }
     }
 
     #[test]

@@ -198,6 +198,10 @@ pub struct EffectValues {
     pub arm_xv_m: f64,
     /// Vertical thruster to starboard of CO, m.
     pub arm_yv_m: f64,
+    /// A vehicle's non-vertical thrusters shifted forward, m.
+    pub arm_xh_m: f64,
+    /// A vehicle's non-vertical thrusters shifted to starboard, m.
+    pub arm_yh_m: f64,
     /// Vertical reaction torque per N, m.
     pub torque_v_m: f64,
     /// Horizontal differential reaction roll torque per N, m.
@@ -234,6 +238,8 @@ impl Default for EffectValues {
             arm_zh_m: 0.0,
             arm_xv_m: 0.0,
             arm_yv_m: 0.0,
+            arm_xh_m: 0.0,
+            arm_yh_m: 0.0,
             torque_v_m: 0.0,
             torque_h_m: 0.0,
             net_weight_m1_n: 0.0,
@@ -357,7 +363,11 @@ impl LabModel {
     /// vehicle files: their `[uncertainty]` table.
     pub fn prior_of(&self, p: Param) -> Option<(f64, f64)> {
         use crate::params::Documented;
-        if matches!(p, Param::ArmZh | Param::ArmXv | Param::ArmYv) && self.arms_calibrated() {
+        if matches!(
+            p,
+            Param::ArmZh | Param::ArmXv | Param::ArmYv | Param::ArmXh | Param::ArmYh
+        ) && self.arms_calibrated()
+        {
             let s = match &self.base {
                 Base::Vehicle(v) => v.def.uncertainty.thruster_position_m,
                 _ => return None,
@@ -376,6 +386,7 @@ impl LabModel {
                     Param::AddedMass(_) => Documented::Rel(u.added_mass_rel),
                     Param::CgX | Param::CgY | Param::CgZ => Documented::Abs(u.cg_m),
                     Param::NetWeight => Documented::Abs(u.net_weight_n),
+                    Param::CommandGain if u.command_gain > 0.0 => Documented::Abs(u.command_gain),
                     _ => return None,
                 }
             }
@@ -617,8 +628,19 @@ impl LabModel {
             out.push(Param::AddedMass(Axis::Roll));
             out.push(Param::AddedMass(Axis::Pitch));
         }
+        // The gain setting, when the file says it is not known (it scales every command
+        // before the mixer and the non-linear thrust curves).
+        if v.def.uncertainty.command_gain > 0.0 {
+            out.push(Param::CommandGain);
+        }
         if self.arms_calibrated() {
-            for p in [Param::ArmZh, Param::ArmXv, Param::ArmYv] {
+            for p in [
+                Param::ArmZh,
+                Param::ArmXv,
+                Param::ArmYv,
+                Param::ArmXh,
+                Param::ArmYh,
+            ] {
                 if self.applicable(p) {
                     out.push(p);
                 }
@@ -799,11 +821,19 @@ impl LabModel {
                         .any(|g| *g != Thr::Vertical)
                 }
                 Param::ArmXv | Param::ArmYv => six && self.has_group(Thr::Vertical),
+                Param::ArmXh | Param::ArmYh => {
+                    six && self.thr_group[..self.n_thr]
+                        .iter()
+                        .any(|g| *g != Thr::Vertical)
+                }
                 Param::TorqueV | Param::TorqueH => false,
                 Param::TrimDeg => !active[4],
                 Param::TermCoef(i, _) => (i as usize) < self.terms.len(),
                 _ => true,
             };
+        }
+        if matches!(p, Param::CommandGain | Param::ArmXh | Param::ArmYh) {
+            return false;
         }
         match p {
             Param::ThrustLin(g) | Param::ReverseRatio(g) | Param::Emi(g) => {
@@ -869,6 +899,8 @@ impl LabModel {
             Param::ArmZh => f.arm_zh_m,
             Param::ArmXv => f.arm_xv_m,
             Param::ArmYv => f.arm_yv_m,
+            Param::ArmXh => f.arm_xh_m,
+            Param::ArmYh => f.arm_yh_m,
             Param::TorqueV => f.torque_v_m,
             Param::TorqueH => f.torque_h_m,
             Param::TrimDeg => f.trim_rad.to_degrees(),
@@ -887,6 +919,10 @@ impl LabModel {
                 let t = self.terms.get(i as usize)?;
                 t.coef * t.scale
             }
+            Param::CommandGain => match &self.base {
+                Base::Vehicle(v) => v.def.command_gain,
+                _ => return None,
+            },
         })
     }
 
@@ -1077,6 +1113,8 @@ impl LabModel {
                 Param::ArmZh => f.arm_zh_m = v,
                 Param::ArmXv => f.arm_xv_m = v,
                 Param::ArmYv => f.arm_yv_m = v,
+                Param::ArmXh => f.arm_xh_m = v,
+                Param::ArmYh => f.arm_yh_m = v,
                 Param::TorqueV => f.torque_v_m = v,
                 Param::TorqueH => f.torque_h_m = v,
                 Param::TrimDeg => f.trim_rad = v.to_radians(),
@@ -1096,6 +1134,11 @@ impl LabModel {
                         && t.scale > 0.0
                     {
                         t.coef = v / t.scale;
+                    }
+                }
+                Param::CommandGain => {
+                    if let Base::Vehicle(vb) = &mut self.base {
+                        vb.def.command_gain = v;
                     }
                 }
             }
@@ -1244,7 +1287,12 @@ impl LabModel {
         if let Base::Vehicle(v) = &self.base {
             let mut tau = v.dynm.tau(f);
             let x = &self.fx;
-            if x.arm_zh_m != 0.0 || x.arm_xv_m != 0.0 || x.arm_yv_m != 0.0 {
+            if x.arm_zh_m != 0.0
+                || x.arm_xv_m != 0.0
+                || x.arm_yv_m != 0.0
+                || x.arm_xh_m != 0.0
+                || x.arm_yh_m != 0.0
+            {
                 // Moving a thruster by Δr adds Δr × F d to the moment.
                 for (i, fi) in f.iter().enumerate().take(self.n_thr) {
                     if *fi == 0.0 {
@@ -1254,7 +1302,7 @@ impl LabModel {
                     let dr = if self.thruster_group(i) == Thr::Vertical {
                         nalgebra::Vector3::new(x.arm_xv_m, x.arm_yv_m, 0.0)
                     } else {
-                        nalgebra::Vector3::new(0.0, 0.0, x.arm_zh_m)
+                        nalgebra::Vector3::new(x.arm_xh_m, x.arm_yh_m, x.arm_zh_m)
                     };
                     let m = dr.cross(&nalgebra::Vector3::new(d[0], d[1], d[2])) * *fi;
                     tau[3] += m.x;

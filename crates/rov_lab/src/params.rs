@@ -98,6 +98,12 @@ pub enum Param {
     ArmXv,
     /// Vertical thruster to starboard of the CO, m.
     ArmYv,
+    /// A vehicle file's non-vertical thrusters shifted forward, m (their resultant's line
+    /// of action: sway thrust then turns the vehicle).
+    ArmXh,
+    /// A vehicle file's non-vertical thrusters shifted to starboard, m (surge thrust then
+    /// turns the vehicle).
+    ArmYh,
     /// Vertical propeller reaction torque per newton of thrust, m.
     TorqueV,
     /// Horizontal propellers' reaction roll torque per newton of differential thrust, m.
@@ -126,6 +132,9 @@ pub enum Param {
     BiasRoll,
     /// Pitch reading offset, deg.
     BiasPitch,
+    /// Gain on every command channel before a vehicle file's mixer (a pilot gain
+    /// setting; calibrated when the file documents its uncertainty).
+    CommandGain,
     /// Coefficient of discovered term i, normalised: N (or N m, `true` = rotational DOF)
     /// at the term's typical regressor size (see [`crate::terms::Term`]).
     TermCoef(u8, bool),
@@ -164,6 +173,8 @@ impl Param {
             Param::ArmZh => "horizontal_arm_z_m".into(),
             Param::ArmXv => "vertical_arm_x_m".into(),
             Param::ArmYv => "vertical_arm_y_m".into(),
+            Param::ArmXh => "horizontal_arm_x_m".into(),
+            Param::ArmYh => "horizontal_arm_y_m".into(),
             Param::TorqueV => "torque_vertical_m".into(),
             Param::TorqueH => "torque_horizontal_m".into(),
             Param::TrimDeg => "trim_deg".into(),
@@ -178,6 +189,7 @@ impl Param {
             Param::Emi(t) => format!("compass_interference_{}_deg", t.name()),
             Param::BiasRoll => "roll_bias_deg".into(),
             Param::BiasPitch => "pitch_bias_deg".into(),
+            Param::CommandGain => "command_gain".into(),
             Param::TermCoef(i, _) => format!("term_{i}_coefficient"),
         }
     }
@@ -215,6 +227,8 @@ impl Param {
             Param::ArmZh,
             Param::ArmXv,
             Param::ArmYv,
+            Param::ArmXh,
+            Param::ArmYh,
             Param::TorqueV,
             Param::TorqueH,
             Param::TrimDeg,
@@ -227,6 +241,7 @@ impl Param {
             Param::CompassCos,
             Param::BiasRoll,
             Param::BiasPitch,
+            Param::CommandGain,
         ]);
         v
     }
@@ -260,7 +275,9 @@ impl Param {
             Param::LagTau => m(0.0, 2.0, 0.05, "s"),
             Param::Deadzone => m(0.0, 0.45, 0.03, "-"),
             Param::PowerMax => m(0.03, 3.0, 0.05, "-"),
-            Param::ArmZh | Param::ArmXv | Param::ArmYv => m(-0.1, 0.1, 0.005, "m"),
+            Param::ArmZh | Param::ArmXv | Param::ArmYv | Param::ArmXh | Param::ArmYh => {
+                m(-0.1, 0.1, 0.005, "m")
+            }
             Param::TorqueV | Param::TorqueH => m(-0.05, 0.05, 0.001, "m"),
             Param::TrimDeg => m(-20.0, 20.0, 1.0, "deg"),
             Param::DragRatio(_) => m(0.4, 2.5, 0.1, "-"),
@@ -270,6 +287,8 @@ impl Param {
             Param::CompassSin | Param::CompassCos => m(-30.0, 30.0, 1.0, "deg"),
             Param::Emi(_) => m(-30.0, 30.0, 1.0, "deg"),
             Param::BiasRoll | Param::BiasPitch => m(-15.0, 15.0, 0.3, "deg"),
+            // The vehicle file's own range for `[commands] gain`.
+            Param::CommandGain => m(0.01, 10.0, 0.02, "-"),
             Param::TermCoef(_, false) => m(-200.0, 200.0, 0.05, "N"),
             Param::TermCoef(_, true) => m(-20.0, 20.0, 0.005, "N m"),
         }
@@ -286,7 +305,7 @@ impl Param {
             Param::PowerMax => upper,
             // ±0.1 m is about half the hull (0.375 × 0.289 × 0.223 m): a thrust line
             // cannot lie outside the vehicle.
-            Param::ArmZh | Param::ArmXv | Param::ArmYv => true,
+            Param::ArmZh | Param::ArmXv | Param::ArmYv | Param::ArmXh | Param::ArmYh => true,
             Param::ThrustLin(_) | Param::DragLin(_) | Param::DragQuad(_) => !upper,
             Param::AddedMass(_) => !upper,
             _ => false,
@@ -304,7 +323,8 @@ impl Param {
             | Param::DragLin(_)
             | Param::DragQuad(_)
             | Param::CgZ
-            | Param::AddedMass(_) => None,
+            | Param::AddedMass(_)
+            | Param::CommandGain => None,
             Param::NetWeight | Param::CgX | Param::CgY => None,
             _ => Some(0.0),
         }
@@ -317,7 +337,7 @@ impl Param {
             Param::LagTau => 0.15,
             Param::Deadzone => 0.15,
             Param::PowerMax => 0.5,
-            Param::ArmZh | Param::ArmXv | Param::ArmYv => 0.01,
+            Param::ArmZh | Param::ArmXv | Param::ArmYv | Param::ArmXh | Param::ArmYh => 0.01,
             Param::TorqueV | Param::TorqueH => 0.002,
             Param::NetWeight => 0.5,
             Param::CgX | Param::CgY => 0.002,
@@ -351,6 +371,8 @@ impl Param {
             | Param::DragRatio(Axis::Yaw)
             | Param::CompassSin
             | Param::CompassCos
+            | Param::ArmXh
+            | Param::ArmYh
             | Param::Emi(_) => &[Heading, YawRate],
             Param::TorqueH | Param::ArmYv | Param::CgY | Param::BiasRoll => &[Roll, RollRate],
             Param::ArmZh | Param::ArmXv | Param::CgX | Param::BiasPitch => &[Pitch, PitchRate],
@@ -376,6 +398,8 @@ impl Param {
             Param::ArmZh
             | Param::ArmXv
             | Param::ArmYv
+            | Param::ArmXh
+            | Param::ArmYh
             | Param::TorqueV
             | Param::TorqueH
             | Param::CgX

@@ -90,3 +90,40 @@ fn bluerov_runs_through_compare_and_diagnose() {
         eprintln!("  calibrated {} = {:.4} ± {:.4}", c.key, c.value, c.std);
     }
 }
+
+/// The tank logs were resampled with the yaw angle interpolated across ±180°: where the
+/// heading wraps, one sample sits ~180° from the truth (11_40_38 at 56.6, 66.2 and 88.9 s).
+/// Such samples are excluded and counted with the heading spikes, and the unwrapped
+/// heading has no half-turn step left.
+#[test]
+fn headings_interpolated_across_the_wrap_are_excluded() {
+    let name = "session_2025_05_27-11_40_38_0_6dof.csv";
+    let Ok(text) = std::fs::read_to_string(data_dir().join(name)) else {
+        eprintln!("shared/real_data is not present; nothing to check");
+        return;
+    };
+    let runs = rov_lab::ingest::runs_from_text(&text, name).unwrap();
+    let heading = rov_lab::data::ch_index(rov_dynamics::models::Channel::Heading);
+    let excluded: usize = runs.iter().map(|r| r.treatment.spikes[heading]).sum();
+    assert!(excluded >= 3, "{excluded} heading samples excluded");
+    for r in &runs {
+        let h = r.channel(rov_dynamics::models::Channel::Heading).unwrap();
+        let p = r.channel(rov_dynamics::models::Channel::Pitch).unwrap();
+        let r_dps = r.channel(rov_dynamics::models::Channel::YawRate).unwrap();
+        for k in 1..h.len() {
+            let ok = [h[k], h[k - 1], p[k], r_dps[k]]
+                .iter()
+                .all(|x| x.is_finite());
+            // Away from the pitch flips (heading undefined near ±90° pitch), the heading
+            // moves by less than a quarter turn between samples.
+            if ok && p[k].abs() < 50.0 {
+                assert!(
+                    (h[k] - h[k - 1]).abs() < 90.0,
+                    "heading {} → {} at sample {k}",
+                    h[k - 1],
+                    h[k]
+                );
+            }
+        }
+    }
+}

@@ -1347,8 +1347,19 @@ fn exp_bluerov_report() {
         for n in &d.calibration_notes {
             eprintln!("    calibration: {n}");
         }
-        for n in &d.data_notes {
-            eprintln!("    data: {n}");
+        eprintln!(
+            "    calibrated: {}",
+            d.calibration
+                .iter()
+                .map(|c| format!("{} = {:.4} ± {:.4}", c.key, c.value, c.std))
+                .collect::<Vec<_>>()
+                .join("; ")
+        );
+        // The data notes are the same in every fold: once.
+        if Some(s) == sessions.first() {
+            for n in &d.data_notes {
+                eprintln!("    data: {n}");
+            }
         }
     }
 }

@@ -50,6 +50,7 @@ use crate::core::{Snapshot, StationCommand};
 pub mod alarms;
 pub mod dive;
 mod engine;
+pub mod finisher;
 pub mod foxglove_live;
 #[cfg(feature = "gamepad")]
 pub mod gamepad;

@@ -448,8 +448,9 @@ fn scenario(name: &str, comeback: Comeback) -> Figures {
     stop_pilot.store(true, Ordering::Relaxed);
     pilot_thread.join().unwrap();
     h.stop_recording();
+    // Stopped, then saved on its finisher thread.
     wait_for(&h, "the recording to finish", |v| {
-        v.recording.path.is_none()
+        v.recording.path.is_none() && v.recording.finishing.is_empty()
     });
     let v = h.view();
     assert_eq!(v.recording.error, None);

@@ -3,7 +3,6 @@
 //! missed, reconnect), and a virtual-time recording whose replay shows, at a seek time,
 //! the frame that was on screen then (read back from the time stamped into its pixels).
 
-use std::process::{Child, Command, Stdio};
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
@@ -13,6 +12,11 @@ use rov_station::runtime::{
     Connection, ReplayCommand, Runtime, RuntimeCommand, RuntimeConfig, VirtualReplay,
     VirtualStation,
 };
+
+/// The RTP sender shared with rov_video's tests (one copy).
+#[path = "../../rov_video/tests/common/rtp.rs"]
+mod rtp;
+use rtp::{free_udp_port, udp_sender};
 
 /// One test at a time: the kill test measures control timing.
 static SERIAL: Mutex<()> = Mutex::new(());
@@ -39,37 +43,6 @@ fn settings(source: &str) -> VideoSettings {
         source: source.into(),
         ..VideoSettings::default()
     }
-}
-
-/// RTP/H.264 of a live test pattern to 127.0.0.1:port from a separate process (as a
-/// companion computer sends it).
-fn udp_sender(port: u16) -> Child {
-    Command::new("gst-launch-1.0")
-        .args([
-            "-q",
-            "videotestsrc",
-            "is-live=true",
-            "pattern=ball",
-            "!",
-            "video/x-raw,width=320,height=240,framerate=25/1,format=I420",
-            "!",
-            "x264enc",
-            "tune=zerolatency",
-            "speed-preset=ultrafast",
-            "key-int-max=10",
-            "!",
-            "rtph264pay",
-            "config-interval=-1",
-            "pt=96",
-            "!",
-            "udpsink",
-            "host=127.0.0.1",
-            &format!("port={port}"),
-        ])
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .expect("gst-launch-1.0 (gstreamer1.0-tools) must be installed")
 }
 
 #[test]
@@ -127,11 +100,7 @@ fn the_gstreamer_test_source_reaches_the_station_as_640x480_at_25_fps() {
 #[test]
 fn a_source_killed_mid_run_shows_no_video_within_1_s_and_misses_no_control_tick() {
     let _s = serial();
-    let port = std::net::UdpSocket::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port();
+    let port = free_udp_port();
     let mut sender = udp_sender(port);
     let h = Runtime::start(RuntimeConfig {
         gamepad: false,

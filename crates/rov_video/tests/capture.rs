@@ -9,7 +9,8 @@ use std::sync::Arc;
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
-use common::{Recorder, encode, free_udp_port, sim_camera, udp_sender, wait_for};
+use common::rtp::{free_udp_port, udp_sender};
+use common::{Recorder, encode, sim_camera, wait_for};
 use rov_video::simcam::CameraPose;
 use rov_video::{
     Capture, CaptureConfig, CaptureState, Encoder, EncoderConfig, FrameSink, OutputSize,

@@ -460,8 +460,14 @@ fn run_diagnose(a: DiagnoseArgs) -> anyhow::Result<ExitCode> {
             }
         );
         println!("      {}", f.explanation);
-        for c in &f.conflicts {
-            println!("      conflict: {c}");
+        // An accepted finding's conflicts matter to whoever uses the model: in full. A
+        // candidate that was not accepted gets one line (the JSON has each in full).
+        if f.significant {
+            for c in &f.conflicts {
+                println!("      conflict: {c}");
+            }
+        } else if let Some(c) = f.conflict_summary() {
+            println!("      conflicts: {c}");
         }
     }
     Ok(ExitCode::SUCCESS)

@@ -5,7 +5,8 @@
 //! default video source with the simulated vehicle: not the horizon instrument's flat
 //! sky, a picture of water and seabed) with the dark instrument background and the green
 //! SAFE / link colours; the recording holds the camera's video. The layout test runs
-//! with `--video none` (the instrument layout).
+//! with `--video none` (the instrument layout). `--vehicle FILE` puts the file's model
+//! behind the window's simulated Pro 4 (a heavy vehicle sinks where model3 does not).
 //!
 //! Needs `xvfb-run` (installed by `scripts/setup.sh`); without it the test fails and
 //! says so.
@@ -217,4 +218,95 @@ fn the_window_fits_at_1024x600_and_1920x1080_under_xvfb() {
         );
         let _ = std::fs::remove_dir_all(&rec_dir);
     }
+}
+
+/// How far the truth sank over a session (last − first `/truth/state` depth), m.
+fn truth_sink_m(path: &Path) -> f64 {
+    let s = rov_session::open(path).unwrap();
+    let truth = s.records::<rov_session::TruthRecord>().unwrap();
+    assert!(truth.len() > 50, "{} truth records", truth.len());
+    truth.last().unwrap().1.depth_m - truth[0].1.depth_m
+}
+
+/// The window's `--vehicle FILE`: the simulated Pro 4 behind the window flies the given
+/// model file. The file is model3 with 0.3 L less displaced volume (W − B = 2.9 N,
+/// heavy); model3 as shipped is neutral (ρV = m). The window runs 4 s disarmed under
+/// Xvfb and records: the heavy vehicle sinks (truth and the measured depth the window
+/// shows), where the shipped model3 on the same simulator (`record --sim`, disarmed)
+/// stays at the surface.
+#[test]
+fn the_window_flies_the_vehicle_file_given_with_vehicle() {
+    let xvfb = xvfb_run();
+    let tmp = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("station_vehicle");
+    let _ = std::fs::remove_dir_all(&tmp);
+    std::fs::create_dir_all(&tmp).unwrap();
+    let model3 =
+        std::fs::read_to_string(workspace_root().join("config/models/model3.toml")).unwrap();
+    let neutral = "volume_m3 = { value = 6.1e-3,";
+    assert!(model3.contains(neutral), "model3.toml's volume line moved");
+    let heavy = tmp.join("heavy.toml");
+    std::fs::write(
+        &heavy,
+        model3.replace(neutral, "volume_m3 = { value = 5.8e-3,"),
+    )
+    .unwrap();
+    let out = tmp.join("window.png");
+    let rec_dir = tmp.join("rec");
+    let output = Command::new(&xvfb)
+        .args(["-a", "-s", "-screen 0 1024x600x24"])
+        .arg(env!("CARGO_BIN_EXE_topside"))
+        .arg("--vehicle")
+        .arg(&heavy)
+        .arg("--screenshot")
+        .arg(&out)
+        .args(["--screenshot-after-s", "4"])
+        .args(["--window-size", "1024x600"])
+        .args(["--video", "none"])
+        .arg("--recordings")
+        .arg(&rec_dir)
+        .current_dir(workspace_root())
+        .env("XDG_RUNTIME_DIR", std::env::temp_dir())
+        .env_remove("WAYLAND_DISPLAY")
+        .output()
+        .expect("run xvfb-run");
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(output.status.success(), "topside failed:\n{stderr}");
+    assert!(out.is_file(), "no screenshot:\n{stderr}");
+    let files: Vec<PathBuf> = std::fs::read_dir(&rec_dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    assert_eq!(files.len(), 1, "{files:?}");
+    let window_sink_m = truth_sink_m(&files[0]);
+    let s = rov_session::open(&files[0]).unwrap();
+    let nav = s.records::<rov_session::NavRecord>().unwrap();
+    let measured_sink_m = nav.last().unwrap().1.depth_m - nav[0].1.depth_m;
+
+    // The shipped model3 on the same simulated vehicle, without a window, also left
+    // disarmed (a script that only switches the lights off: no built-in dive).
+    let script = tmp.join("idle.toml");
+    std::fs::write(&script, "[[command]]\nt_s = 1.0\nlights_pct = 0.0\n").unwrap();
+    let base = tmp.join("base.mcap");
+    let o = Command::new(env!("CARGO_BIN_EXE_topside"))
+        .args(["record", "--sim", "--fast", "--duration-s", "4"])
+        .args(["--video", "none", "--script"])
+        .arg(&script)
+        .arg("--out")
+        .arg(&base)
+        .current_dir(workspace_root())
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let base_sink_m = truth_sink_m(&base);
+    eprintln!(
+        "--vehicle heavy.toml: sank {window_sink_m:.2} m (measured {measured_sink_m:.2} m) \
+         in the window's run; model3 as shipped: {base_sink_m:.3} m"
+    );
+    assert!(base_sink_m.abs() < 0.1, "model3 moved {base_sink_m} m");
+    assert!(
+        window_sink_m > 0.3,
+        "the heavy vehicle file did not sink: {window_sink_m} m"
+    );
+    assert!(measured_sink_m > 0.2, "measured sink {measured_sink_m} m");
+    let _ = std::fs::remove_dir_all(&tmp);
 }

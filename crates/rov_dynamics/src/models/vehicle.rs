@@ -17,7 +17,7 @@
 //! [options]         munk_moment = "zeroed" | "full"
 //! [commands]        saturation = "clamp" | "scale", gain (optional, default 1)
 //! [uncertainty]     thrust_gain, damping, added_mass (relative σ), cg_m, net_weight_n,
-//!                   thruster_position_m (absolute σ; optional)
+//!                   thruster_position_m, command_gain (absolute σ; optional)
 //! [thrusters.NAME]  group, position_m [3], direction [3], curve = "quadratic" | "table",
 //!                   forward/reverse_linear_n, forward/reverse_quadratic_n (quadratic) or
 //!                   forward/reverse_table_n [11] (table, at |u| = 0, 0.1, …, 1),
@@ -50,6 +50,18 @@
 //! standard deviations for thrust, damping and added mass; absolute for the CG height and
 //! the net weight). The model lab uses them as priors when it calibrates the vehicle and
 //! when it decides whether a misfit is within what the parameters' uncertainty explains.
+//!
+//! `thruster_position_m` (default 0) says the thruster positions are not exact: the lab
+//! then refits the thrust lines, shifting the non-vertical thrusters together in x, y
+//! and z (surge thrust off the centreline yaws the vehicle, sway thrust off the CO's
+//! vertical plane yaws it too, height pitches and rolls it) and the vertical ones in x
+//! and y, each with that prior.
+//!
+//! `command_gain` (σ of `[commands] gain`, default 0) says the gain setting itself is not
+//! known: the lab then calibrates the gain with that prior. The gain is not a thrust
+//! scale: it moves the operating point along a non-linear thrust curve (the T200's force
+//! roughly triples from 10 % to 20 % command but grows by a third from 50 % to 70 %), so
+//! runs at several demand levels separate it from the thrust gains.
 
 use nalgebra::{Matrix3, Vector3};
 use rov_types::{ConfigError, ParamFile};
@@ -298,8 +310,12 @@ pub struct Uncertainty {
     /// Net weight W − B, σ in N.
     pub net_weight_n: f64,
     /// Thruster positions, σ in m (0: the positions are taken as exact; otherwise the model
-    /// lab calibrates the thrust lines' offsets with this prior).
+    /// lab calibrates the thrust lines' offsets with this prior: the non-vertical
+    /// thrusters' shift in x, y and z, the vertical ones' in x and y).
     pub thruster_position_m: f64,
+    /// The command gain, σ (0: the gain is taken as exact; otherwise the model lab
+    /// calibrates it with this prior).
+    pub command_gain: f64,
 }
 
 /// A parsed vehicle definition.
@@ -440,6 +456,7 @@ impl VehicleDef {
             cg_m: pf.f64_or("uncertainty.cg_m", 0.0..=1.0, 0.01)?,
             net_weight_n: pf.f64_or("uncertainty.net_weight_n", 0.0..=1000.0, 1.0)?,
             thruster_position_m: pf.f64_or("uncertainty.thruster_position_m", 0.0..=1.0, 0.0)?,
+            command_gain: pf.f64_or("uncertainty.command_gain", 0.0..=10.0, 0.0)?,
         };
         let group_names: Vec<&str> = ThrusterGroup::ALL.iter().map(|g| g.name()).collect();
         let mut thrusters = Vec::with_capacity(names.len());

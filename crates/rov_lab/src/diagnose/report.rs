@@ -172,6 +172,39 @@ pub struct Diagnosis {
 }
 
 impl Finding {
+    /// The conflicts in one line for the text report: the channels made worse and by how
+    /// much in which view, without the per-channel reasoning (that stays in
+    /// [`Finding::conflicts`], i.e. in the JSON). `None` without conflicts.
+    ///
+    /// Each conflict starts "<channel> gets <views>;" ([`super::judging`]); the part
+    /// before the first ';' is kept.
+    pub fn conflict_summary(&self) -> Option<String> {
+        if self.conflicts.is_empty() {
+            return None;
+        }
+        let parts: Vec<&str> = self
+            .conflicts
+            .iter()
+            .map(|c| c.split(';').next().unwrap_or(c).trim())
+            .collect();
+        let blocking = self
+            .conflicts
+            .iter()
+            .filter(|c| c.contains("this blocks the finding"))
+            .count();
+        Some(format!(
+            "{} channel{} worse ({}){}; a trade between channels usually means a base-structure problem (details: --json, findings[].conflicts)",
+            parts.len(),
+            if parts.len() == 1 { "" } else { "s" },
+            parts.join("; "),
+            if blocking > 0 {
+                format!(", {blocking} blocking")
+            } else {
+                String::new()
+            }
+        ))
+    }
+
     /// A finding with nothing evaluated yet.
     pub(super) fn blank(
         effect: EffectId,
@@ -274,5 +307,38 @@ pub(super) fn rmse_map(e: &Evaluation) -> RmseMaps {
             .iter()
             .map(|(k, c)| (k.name().to_string(), c.free_run.rmse))
             .collect(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn conflict_summary_is_one_line_naming_each_channel() {
+        let mut f = Finding::blank(
+            EffectId::AddedMass,
+            Status::NotSignificant,
+            String::new(),
+            false,
+        );
+        assert_eq!(f.conflict_summary(), None);
+        f.conflicts = vec![
+            "depth gets shooting RMSE +40 %; this blocks the finding — long reasoning".into(),
+            "roll gets free-run RMSE +12 %; tolerated because …".into(),
+        ];
+        let s = f.conflict_summary().unwrap_or_default();
+        assert!(!s.contains('\n'), "{s}");
+        assert!(
+            s.starts_with(
+                "2 channels worse (depth gets shooting RMSE +40 %; roll gets free-run RMSE +12 %)"
+            ),
+            "{s}"
+        );
+        assert!(s.contains("1 blocking"), "{s}");
+        assert!(
+            !s.contains("long reasoning") && !s.contains("tolerated"),
+            "{s}"
+        );
     }
 }

@@ -65,6 +65,9 @@ pub enum Hidden {
     /// Outside the catalog: heave force k·u·|u| (N per (m/s)²; a lift growing with the
     /// square of the surge speed).
     HeaveLift(f64),
+    /// Outside the catalog: yaw moment k·w·|w| (N m per (m/s)²; a swirl set up by moving
+    /// vertically).
+    YawHeaveSq(f64),
 }
 
 /// Out-of-catalog generalised forces of the truth (see [`Hidden`]).
@@ -73,6 +76,7 @@ struct OutsideTerms {
     heave_rr: f64,
     yaw_r_absu: f64,
     heave_u_absu: f64,
+    yaw_w_absw: f64,
 }
 
 #[derive(Debug, Clone)]
@@ -144,6 +148,7 @@ impl VehicleModel for TruthModel {
         let o = &self.outside;
         t[2] += o.heave_rr * r * r + o.heave_u_absu * u * u.abs();
         t[5] -= o.yaw_r_absu * r * u.abs();
+        t[5] += o.yaw_w_absw * w * w.abs();
         self.base.dynamics(state, &t, current)
     }
     fn n_extra_states(&self) -> usize {
@@ -264,6 +269,7 @@ fn truth_model(seed: u64, frac: f64, hidden: &[Hidden]) -> (TruthModel, Option<T
             Hidden::HeaveYawSq(k) => outside.heave_rr = k,
             Hidden::YawSpeedDamp(k) => outside.yaw_r_absu = k,
             Hidden::HeaveLift(k) => outside.heave_u_absu = k,
+            Hidden::YawHeaveSq(k) => outside.yaw_w_absw = k,
             Hidden::Tether(f, az_deg) => {
                 let a = az_deg.to_radians();
                 tether = Some(TetherForce {
@@ -671,4 +677,165 @@ pub fn mess_up(
             .rows
             .retain(|r| r.time_s < t0 || r.time_s >= t0 + len);
     }
+}
+
+/// A planar truth: model1 or model2 (`"model1"`/`"model2"`) perturbed ±20 % with hidden
+/// effects written here on top of any model (a negative command's thrust scaled by the
+/// reverse ratio, a first-order command lag, the vertical reaction torque on yaw, the
+/// out-of-catalog forces of [`Hidden`]); sensor-side effects as [`truth_run`].
+#[derive(Debug, Clone)]
+struct PlanarTruth {
+    base: std::sync::Arc<dyn VehicleModel>,
+    rev: [f64; 3],
+    lag: f64,
+    torque_v: f64,
+    outside: OutsideTerms,
+}
+
+impl VehicleModel for PlanarTruth {
+    fn name(&self) -> &str {
+        "planar-truth"
+    }
+    fn predicts(&self, ch: Channel) -> bool {
+        self.base.predicts(ch)
+    }
+    fn thruster_forces(&self, cmd: &ThrustPct, state: &ModelState) -> ThrusterForces {
+        let c = if self.lag > 0.0 {
+            ThrustPct::new(state.extra[0], state.extra[1], state.extra[2])
+        } else {
+            *cmd
+        };
+        let mut f = self.base.thruster_forces(&c, state);
+        let s = |u: f64, r: f64| if u < 0.0 { r } else { 1.0 };
+        f.port_n *= s(c.port, self.rev[0]);
+        f.starboard_n *= s(c.starboard, self.rev[1]);
+        f.vertical_n *= s(c.vertical, self.rev[2]);
+        f
+    }
+    fn generalized_force(&self, forces: &ThrusterForces, state: &ModelState) -> Vector6 {
+        let mut tau = self.base.generalized_force(forces, state);
+        tau[5] += self.torque_v * forces.vertical_n;
+        tau
+    }
+    fn dynamics(&self, state: &ModelState, tau: &Vector6, current: &CurrentSample) -> ModelState {
+        let mut t = *tau;
+        let (u, w, r) = (state.nu[0], state.nu[2], state.nu[5]);
+        let o = &self.outside;
+        t[2] += o.heave_rr * r * r + o.heave_u_absu * u * u.abs();
+        t[5] += o.yaw_w_absw * w * w.abs() - o.yaw_r_absu * r * u.abs();
+        self.base.dynamics(state, &t, current)
+    }
+    fn n_extra_states(&self) -> usize {
+        if self.lag > 0.0 { 3 } else { 0 }
+    }
+    fn extra_dynamics(&self, _t: f64, state: &ModelState, cmd: &ThrustPct, d: &mut ModelState) {
+        if self.lag > 0.0 {
+            d.extra[0] = (cmd.port - state.extra[0]) / self.lag;
+            d.extra[1] = (cmd.starboard - state.extra[1]) / self.lag;
+            d.extra[2] = (cmd.vertical - state.extra[2]) / self.lag;
+        }
+    }
+    fn initial_state(&self, ic: &InitialConditions) -> ModelState {
+        self.base.initial_state(ic)
+    }
+    fn clone_box(&self) -> Box<dyn VehicleModel> {
+        Box::new(self.clone())
+    }
+    fn as_any(&self) -> &dyn Any {
+        self
+    }
+}
+
+fn planar_truth(base: &str, seed: u64, hidden: &[Hidden]) -> PlanarTruth {
+    let mut rng = StdRng::seed_from_u64(seed ^ 0x9E37_79B9);
+    let b = load_default_model(base).unwrap();
+    let model: std::sync::Arc<dyn VehicleModel> =
+        if let Some(m1) = b.as_any().downcast_ref::<rov_dynamics::models::Model1>() {
+            let mut p = *m1.params();
+            for q in [&mut p.port, &mut p.starboard, &mut p.vertical] {
+                q.forward.linear_n = perturb(&mut rng, q.forward.linear_n, 0.2);
+                q.forward.quadratic_n = perturb(&mut rng, q.forward.quadratic_n, 0.2);
+                q.reverse = q.forward;
+            }
+            for d in [&mut p.surge_drag, &mut p.heave_drag, &mut p.yaw_drag] {
+                d.linear = perturb(&mut rng, d.linear, 0.2);
+                d.quadratic = perturb(&mut rng, d.quadratic, 0.2);
+            }
+            std::sync::Arc::new(rov_dynamics::models::Model1::new(p))
+        } else {
+            let m2 = b
+                .as_any()
+                .downcast_ref::<rov_dynamics::models::Model2>()
+                .unwrap();
+            let mut p = *m2.params();
+            for x in [
+                &mut p.g1_n_per_pct,
+                &mut p.g2_n_per_pct,
+                &mut p.g3_nm_per_pct,
+                &mut p.x_u,
+                &mut p.x_uu,
+                &mut p.z_w,
+                &mut p.z_ww,
+                &mut p.n_r,
+                &mut p.n_rr,
+            ] {
+                *x = perturb(&mut rng, *x, 0.2);
+            }
+            std::sync::Arc::new(rov_dynamics::models::Model2::new(p))
+        };
+    let mut t = PlanarTruth {
+        base: model,
+        rev: [1.0; 3],
+        lag: 0.0,
+        torque_v: 0.0,
+        outside: OutsideTerms::default(),
+    };
+    for h in hidden {
+        match *h {
+            Hidden::AsymVertical(r) => t.rev[2] = r,
+            Hidden::AsymHorizontal(r) => {
+                t.rev[0] = r;
+                t.rev[1] = r;
+            }
+            Hidden::Lag(x) => t.lag = x,
+            Hidden::TorqueV(c) => t.torque_v = c,
+            Hidden::HeaveYawSq(k) => t.outside.heave_rr = k,
+            Hidden::YawSpeedDamp(k) => t.outside.yaw_r_absu = k,
+            Hidden::HeaveLift(k) => t.outside.heave_u_absu = k,
+            Hidden::YawHeaveSq(k) => t.outside.yaw_w_absw = k,
+            Hidden::DepthDrift(_)
+            | Hidden::CompassEmiV(_)
+            | Hidden::CompassDev(_)
+            | Hidden::PitchBias(_) => {}
+            other => panic!("{other:?} is not implemented on a planar truth"),
+        }
+    }
+    t
+}
+
+/// Training and held-out runs (as [`case_len`]) of a planar truth (model1 or model2
+/// perturbed, see [`PlanarTruth`]) with hidden effects.
+pub fn planar_case(
+    base: &str,
+    seed: u64,
+    hidden: &[Hidden],
+    train_len: f64,
+    val_len: f64,
+) -> (MeasurementSeries, MeasurementSeries) {
+    let truth = planar_truth(base, seed, hidden);
+    let run = |sched: &Schedule, noise_seed: u64| {
+        let mut cfg = SimConfig::with_model(Box::new(truth.clone()));
+        cfg.sensors.pressure.noise_std_mbar = 1.5;
+        cfg.sensors.attitude.heading_noise_std_deg = 0.7;
+        cfg.initial = InitialConditions::at_rest(5.0, 30.0);
+        let sensors = cfg.sensors;
+        let mut sim = Simulator::new(cfg, noise_seed).unwrap();
+        sensorize(
+            run_schedule_on(&mut sim, &sensors, sched, 0.05).unwrap(),
+            hidden,
+        )
+    };
+    let train_s = paper_schedule(seed, train_len, &[30.0, 60.0, 90.0], 12.0, 8.0);
+    let val_s = paper_schedule(seed + 1000, val_len, &[45.0, 75.0, 30.0, 90.0], 10.0, 8.0);
+    (run(&train_s, seed), run(&val_s, seed + 5000))
 }

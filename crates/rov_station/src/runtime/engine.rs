@@ -2,6 +2,7 @@
 //! selection and shaping, hold-to-arm, camera, alarms, prediction, records, recording,
 //! publication). Clock-free: the drivers (`live`, `sim`) pass the time in.
 
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::sync::atomic::Ordering;
 
@@ -18,6 +19,7 @@ use crate::runtime::alarms::{AlarmChange, AlarmInputs, AlarmLevel, Alarms};
 use crate::runtime::dive::{
     DiveEvent, DiveLog, Item, ItemStatus, THRUSTERS, ThrusterTest, thruster_detail,
 };
+use crate::runtime::finisher::{EXIT_WAIT, Finished, Finishers};
 use crate::runtime::history::HistorySample;
 use crate::runtime::pad::{Action, PadButton, PadState};
 use crate::runtime::predict::{Anchor, Predictor};
@@ -60,6 +62,8 @@ pub(crate) struct Engine {
     tilt_deg: i8,
     focus_pct: i8,
     recorder: Option<Recorder>,
+    /// Stopped recordings being saved on their own threads (see `finisher`).
+    finishers: Finishers,
     /// The live Foxglove server's tap (records are copied to it, recording or not).
     live: Option<crate::runtime::foxglove_live::LiveTap>,
     /// Live sim mode: the vehicle thread's latest truth, for `/truth/state`.
@@ -212,6 +216,7 @@ impl Engine {
             tilt_deg: 0,
             focus_pct: 0,
             recorder: None,
+            finishers: Finishers::default(),
             video: None,
             live: None,
             truth_tap: None,
@@ -533,6 +538,20 @@ impl Engine {
         if self.recorder.is_some() {
             self.stop_recording(now_us);
         }
+        if self.finishers.is_finishing(path) {
+            let e = format!(
+                "{} is still being saved from the last recording; record to another file",
+                file_name(path)
+            );
+            self.pipeline.view.recording.error = Some(e.clone());
+            self.event(
+                now_us,
+                "recording",
+                Severity::Warning,
+                format!("cannot record: {e}"),
+            );
+            return;
+        }
         let info = SessionInfo {
             vehicle: self.source_label.clone(),
             software_version: env!("CARGO_PKG_VERSION").to_string(),
@@ -579,45 +598,108 @@ impl Engine {
         }
     }
 
+    /// Stops the recording: its encoder and writer are handed to a finisher thread (the
+    /// encoder's last units, the summary and the sync take up to seconds the control
+    /// loop must not spend); the view lists the file as being saved until it is. On
+    /// virtual time (`record_blocking`) the file is finished before this returns.
     pub fn stop_recording(&mut self, now_us: u64) {
         let Some(r) = self.recorder.take() else {
             return;
         };
         let path = r.path().to_path_buf();
-        // The encoder's last units reach the queue before the writer finishes.
-        if let Some(Err(e)) = self.video.as_ref().map(|v| v.end_recording()) {
+        let encoder = self.video.as_ref().and_then(|v| v.detach_recording());
+        self.finishers.start(r, encoder);
+        let v = &mut self.pipeline.view.recording;
+        v.path = None;
+        v.elapsed_s = 0.0;
+        self.event(
+            now_us,
+            "recording",
+            Severity::Info,
+            format!("recording stopped: {}, saving", file_name(&path)),
+        );
+        if self.cfg.record_blocking {
+            // Virtual time: no real-time loop to protect, and the run's next step may
+            // read the file.
+            self.wait_for_finishers(EXIT_WAIT, now_us);
+        } else {
+            self.show_finishing();
+        }
+    }
+
+    /// The files being saved, in the view (changed only when the list changes).
+    fn show_finishing(&mut self) {
+        let v = &mut self.pipeline.view.recording.finishing;
+        if !v.iter().map(PathBuf::as_path).eq(self.finishers.paths()) {
+            *v = self.finishers.paths().map(Path::to_path_buf).collect();
+        }
+    }
+
+    /// Takes in the recordings saved since the last call (each tick; never waits).
+    fn poll_finishers(&mut self, now_us: u64) {
+        if self.finishers.is_empty() {
+            return;
+        }
+        let mut done = Vec::new();
+        self.finishers.poll(|f| done.push(f));
+        for f in done {
+            self.saved(f, now_us);
+        }
+        self.show_finishing();
+    }
+
+    /// Waits for every recording being saved, at most `limit` in all.
+    fn wait_for_finishers(&mut self, limit: std::time::Duration, now_us: u64) {
+        let mut done = Vec::new();
+        let left = self.finishers.wait_all(limit, |f| done.push(f));
+        for f in done {
+            self.saved(f, now_us);
+        }
+        for p in left {
+            let e = format!(
+                "{} was not finished within {} s; open it to recover what was written",
+                file_name(&p),
+                limit.as_secs()
+            );
+            self.pipeline.view.recording.error = Some(e.clone());
+            self.event(now_us, "recording", Severity::Warning, e);
+        }
+        self.show_finishing();
+    }
+
+    /// A recording is saved (or failed): the view and the events say so.
+    fn saved(&mut self, f: Finished, now_us: u64) {
+        let name = file_name(&f.path);
+        if let Some(e) = f.video_error {
             self.event(
                 now_us,
                 "recording",
                 Severity::Warning,
-                format!("video recording ended with an error: {e}"),
+                format!("video recording of {name} ended with an error: {e}"),
             );
         }
-        let result = r.stop();
+        let recording = self.recorder.is_some();
         let v = &mut self.pipeline.view.recording;
-        v.path = None;
-        v.last_file = Some(path.clone());
-        match result {
+        match f.result {
             Ok(s) => {
-                v.messages = s.messages;
+                v.last_file = Some(f.path);
+                if !recording {
+                    v.messages = s.messages;
+                }
                 self.event(
                     now_us,
                     "recording",
                     Severity::Info,
-                    format!(
-                        "recording stopped: {} ({} messages)",
-                        file_name(&path),
-                        s.messages
-                    ),
+                    format!("recording saved: {name} ({} messages)", s.messages),
                 );
             }
             Err(e) => {
-                v.error = Some(e.clone());
+                v.error = Some(format!("{name}: {e}"));
                 self.event(
                     now_us,
                     "recording",
                     Severity::Warning,
-                    format!("recording failed: {e}"),
+                    format!("recording failed: {name}: {e}"),
                 );
             }
         }
@@ -1058,6 +1140,7 @@ impl Engine {
         link.set_command(block);
 
         let out = self.core.tick(link, now_us);
+        self.poll_finishers(now_us);
         let test_thrust = self.thruster_test_tick(link, &raw, now_us);
         let dt_s = self
             .last_tick_us
@@ -1365,9 +1448,11 @@ impl Engine {
         }
     }
 
-    /// Finishes a recording (shutdown).
+    /// Finishes a recording (shutdown) and waits for every recording being saved, at
+    /// most [`EXIT_WAIT`] in all: nothing is lost at exit.
     pub fn finish(&mut self, now_us: u64) {
         self.stop_recording(now_us);
+        self.wait_for_finishers(EXIT_WAIT, now_us);
     }
 }
 

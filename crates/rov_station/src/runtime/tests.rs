@@ -141,8 +141,8 @@ fn g1_a_gui_that_stalls_for_2_s_misses_no_control_tick() {
     let video = h.video().unwrap().status();
     assert!(video.recording, "{video:?}");
     assert!(h.stop_recording());
-    wait_for(&h, "the recording to stop", 10.0, |v| {
-        v.recording.path.is_none()
+    wait_for(&h, "the recording to be saved", 10.0, |v| {
+        v.recording.path.is_none() && v.recording.last_file.as_ref() == Some(&rec)
     });
     let session = rov_session::open(&rec).unwrap();
     let frames = session.count("/camera/video");
@@ -626,4 +626,125 @@ fn the_control_loop_stays_off_the_allocator_in_steady_state() {
         rec as f64 / rec_ticks as f64 <= 10.0,
         "{rec} allocations in {rec_ticks} ticks while recording"
     );
+}
+
+/// Stopping a recording with video never holds up the control loop: the encoder's last
+/// units, the summary and the sync run on the recording's finisher thread. The finisher
+/// is held at its start (a slow encoder or disk, made deterministic) while the control
+/// loop must go on publishing ticks, the view says "being saved", the same file is
+/// refused and a new recording starts; once released the file is saved, complete, and
+/// holds the video up to the stop. At exit the station waits for a finisher still held.
+#[test]
+fn stopping_a_recording_with_video_never_holds_up_the_control_loop() {
+    use crate::runtime::finisher::test_gate;
+    /// Opens the gate however the test ends (a held finisher would hang later tests).
+    struct Reopen;
+    impl Drop for Reopen {
+        fn drop(&mut self) {
+            test_gate::open();
+        }
+    }
+    let _serial = serial();
+    let _reopen = Reopen;
+    let dir = std::env::temp_dir().join(format!("rov_station_finish_{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let first = dir.join("first.mcap");
+    let second = dir.join("second.mcap");
+    let h = Runtime::start(RuntimeConfig {
+        video: video::VideoSettings {
+            source: "sim".into(),
+            ..video::VideoSettings::default()
+        },
+        ..sim_config()
+    })
+    .unwrap();
+    wait_for(&h, "the link", 10.0, |v| v.link.health == "connected");
+    assert!(h.start_recording(&first));
+    wait_for(&h, "two seconds of recording", 20.0, |v| {
+        v.recording.elapsed_s >= 2.0
+    });
+    assert!(h.video().unwrap().status().recording, "no video encoding");
+
+    test_gate::close();
+    assert!(h.stop_recording());
+    wait_for(&h, "the stopped recording being saved", 10.0, |v| {
+        v.recording.path.is_none() && v.recording.finishing == [first.clone()]
+    });
+    // The finisher is held: the control loop must keep ticking. 50 ticks = 1 s at 50 Hz;
+    // the wait is generous (load), the assertion is on the tick sequence.
+    let seq = h.view().seq;
+    wait_for(&h, "50 control ticks while the file is saved", 30.0, |v| {
+        v.seq >= seq + 50
+    });
+    let v = h.view();
+    assert_eq!(
+        v.recording.finishing,
+        std::slice::from_ref(&first),
+        "{:?}",
+        v.recording
+    );
+    assert_ne!(v.recording.last_file.as_ref(), Some(&first));
+
+    // The file being saved is refused, with the reason; another file records.
+    assert!(h.start_recording(&first));
+    wait_for(&h, "the refusal", 10.0, |v| {
+        v.recording
+            .error
+            .as_deref()
+            .is_some_and(|e| e.contains("still being saved"))
+    });
+    assert!(h.view().recording.path.is_none());
+    assert!(h.start_recording(&second));
+    wait_for(&h, "the second recording", 10.0, |v| {
+        v.recording.path.as_ref() == Some(&second)
+    });
+
+    test_gate::open();
+    wait_for(&h, "the first file saved", 20.0, |v| {
+        v.recording.finishing.is_empty() && v.recording.last_file.as_ref() == Some(&first)
+    });
+    assert!(
+        h.view()
+            .events
+            .iter()
+            .any(|e| e.contains("recording saved: first.mcap")),
+        "{:#?}",
+        h.view().events
+    );
+    let s = rov_session::open(&first).unwrap();
+    assert!(s.is_indexed() && s.is_complete(), "{:?}", s.warnings());
+    let frames = s.count("/camera/video");
+    assert!(frames >= 25, "{frames} video units");
+    // The encoder's last units reached the file: the video runs up to the stop.
+    let end_nav = s.last_before("/telemetry/nav", u64::MAX).unwrap().t_ns;
+    let end_video = s.last_before("/camera/video", u64::MAX).unwrap().t_ns;
+    assert!(
+        end_video + 500_000_000 >= end_nav,
+        "video ends at {end_video} ns, telemetry at {end_nav} ns"
+    );
+
+    // Exit with the second recording's finisher held: shutdown waits for it.
+    wait_for(&h, "the second recording running", 20.0, |v| {
+        v.recording.elapsed_s >= 1.0
+    });
+    test_gate::close();
+    let opened = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let opener = {
+        let opened = std::sync::Arc::clone(&opened);
+        std::thread::spawn(move || {
+            std::thread::sleep(Duration::from_secs(1));
+            opened.store(true, std::sync::atomic::Ordering::SeqCst);
+            test_gate::open();
+        })
+    };
+    h.shutdown();
+    assert!(
+        opened.load(std::sync::atomic::Ordering::SeqCst),
+        "shutdown returned before the held finisher was released"
+    );
+    opener.join().unwrap();
+    let s = rov_session::open(&second).unwrap();
+    assert!(s.is_indexed() && s.is_complete(), "{:?}", s.warnings());
+    assert!(s.count("/camera/video") >= 10);
+    std::fs::remove_dir_all(&dir).ok();
 }

@@ -37,8 +37,9 @@ use crate::runtime::{Connection, lock};
 
 /// Frames per second of the simulator's camera (live and virtual time).
 pub const SIM_FPS: u32 = 25;
-/// How long stopping a recording waits for the encoder's last units.
-const FINISH_TIMEOUT: Duration = Duration::from_secs(3);
+/// How long finishing a recording waits for the encoder's last units (on the recording's
+/// finisher thread, `runtime::finisher`, never the control thread).
+pub(crate) const FINISH_TIMEOUT: Duration = Duration::from_secs(3);
 
 /// The `[video]` table of the station configuration.
 #[derive(Debug, Clone, PartialEq)]
@@ -559,21 +560,13 @@ impl StationVideo {
         Ok(true)
     }
 
-    /// Stops encoding: the last units reach the recorder before this returns. Returns the
-    /// encoder's figures (`None` when nothing was encoding).
-    ///
-    /// # Errors
-    /// The encoder's failure.
-    pub fn end_recording(&self) -> Result<Option<rov_video::EncoderStats>, String> {
+    /// Ends the recording's encoding without waiting: the encoder is handed back to be
+    /// finished elsewhere (its last units still go to the recording's tap; see
+    /// `runtime::finisher`). `None` when nothing was encoding. An encoder still being
+    /// built for this recording is dropped unused when it arrives.
+    pub fn detach_recording(&self) -> Option<Encoder> {
         self.record.generation.fetch_add(1, Ordering::AcqRel);
-        let enc = lock(&self.record.encoder).take();
-        match enc {
-            None => Ok(None),
-            Some(e) => e
-                .finish(FINISH_TIMEOUT)
-                .map(Some)
-                .map_err(|e| e.to_string()),
-        }
+        lock(&self.record.encoder).take()
     }
 
     /// Stops the source (also on drop).

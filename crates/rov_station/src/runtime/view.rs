@@ -237,8 +237,11 @@ pub struct RecordingView {
     pub dropped: u64,
     /// The last recorder error.
     pub error: Option<String>,
-    /// The last file finished.
+    /// The last file saved (finished: summary written and synced).
     pub last_file: Option<PathBuf>,
+    /// Stopped recordings still being saved (the encoder's last units, the summary, the
+    /// sync: on their own threads, `runtime::finisher`), oldest first.
+    pub finishing: Vec<PathBuf>,
 }
 
 /// Replay state.
@@ -846,7 +849,8 @@ crate::clone_fields!(RecordingView {
     messages,
     dropped,
     error,
-    last_file
+    last_file,
+    finishing
 });
 
 crate::clone_fields!(ReplayView {

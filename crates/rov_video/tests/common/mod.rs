@@ -2,12 +2,15 @@
 #![allow(dead_code)]
 
 use std::path::Path;
-use std::process::{Child, Command, Stdio};
+use std::process::{Command, Stdio};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use rov_video::simcam::{CameraModel, SimCamera, SimScene};
 use rov_video::{AccessUnit, Encoder, EncoderConfig, FrameSink, VideoFrame};
+
+/// The RTP sender (shared with rov_station's video test).
+pub mod rtp;
 
 /// The simulator's camera at another picture size (default scene, no stamp).
 pub fn sim_camera(width_px: u32, height_px: u32) -> SimCamera {
@@ -44,43 +47,6 @@ pub fn wait_for(timeout: Duration, mut cond: impl FnMut() -> bool) -> Option<Dur
         std::thread::sleep(Duration::from_millis(10));
     }
     None
-}
-
-/// A free UDP port on the loopback interface.
-pub fn free_udp_port() -> u16 {
-    let s = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
-    s.local_addr().unwrap().port()
-}
-
-/// A separate process sending RTP/H.264 of a live test pattern to 127.0.0.1:port, as an
-/// ROV companion computer does.
-pub fn udp_sender(port: u16) -> Child {
-    Command::new("gst-launch-1.0")
-        .args([
-            "-q",
-            "videotestsrc",
-            "is-live=true",
-            "pattern=ball",
-            "!",
-            "video/x-raw,width=320,height=240,framerate=25/1,format=I420",
-            "!",
-            "x264enc",
-            "tune=zerolatency",
-            "speed-preset=ultrafast",
-            "key-int-max=10",
-            "!",
-            "rtph264pay",
-            "config-interval=-1",
-            "pt=96",
-            "!",
-            "udpsink",
-            "host=127.0.0.1",
-            &format!("port={port}"),
-        ])
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .expect("gst-launch-1.0 (gstreamer1.0-tools) must be installed")
 }
 
 /// Encodes frames (pushed without dropping) and returns the access units.
