@@ -96,6 +96,22 @@ pub struct EffectInfo {
     /// The error view its parameters are fitted in (every effect is judged on both).
     #[serde(skip)]
     pub fit_view: FitView,
+    /// The held-out view(s) whose gain makes it found.
+    #[serde(skip)]
+    pub judged_in: JudgedIn,
+}
+
+/// The held-out view(s) an effect must improve to be found.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum JudgedIn {
+    /// Both multiple shooting and free run: every dynamic effect (a gain in one view only
+    /// is that view's artefact).
+    BothViews,
+    /// The free run alone (open-loop data): an effect whose signature only shows when
+    /// the model is not re-anchored to the measurement (a slow sensor drift, which every
+    /// re-initialised window removes).
+    FreeRun,
 }
 
 /// The error view an effect is fitted in.
@@ -428,6 +444,10 @@ impl EffectId {
             DepthSensorDrift => FitView::FreeRun,
             _ => FitView::Shooting,
         };
+        let judged_in = match self {
+            DepthSensorDrift => JudgedIn::FreeRun,
+            _ => JudgedIn::BothViews,
+        };
         EffectInfo {
             id: self,
             key,
@@ -438,6 +458,7 @@ impl EffectId {
             needs,
             home,
             fit_view,
+            judged_in,
         }
     }
 }

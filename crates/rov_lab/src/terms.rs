@@ -349,8 +349,14 @@ pub fn parse_term_id(
 
 /// The candidate library for a model with `n_cmd` command signals, over the DOFs in
 /// `dofs` and the velocities in `nu_active` (those the model's state can have non-zero):
-/// every (DOF, regressor) pair, without duplicates.
-pub fn library(dofs: &[usize], nu_active: &[bool; 6], n_cmd: usize) -> Vec<(u8, TermKind)> {
+/// every (DOF, regressor) pair, without duplicates. `quad_calibrated[d]`: the base
+/// calibrates DOF d's own quadratic drag, so ν_d|ν_d| on d is a base parameter too.
+pub fn library(
+    dofs: &[usize],
+    nu_active: &[bool; 6],
+    n_cmd: usize,
+    quad_calibrated: &[bool; 6],
+) -> Vec<(u8, TermKind)> {
     let vel: Vec<u8> = (0..6u8).filter(|i| nu_active[*i as usize]).collect();
     let mut forms: Vec<TermKind> = Vec::new();
     for (ia, a) in vel.iter().enumerate() {
@@ -381,8 +387,12 @@ pub fn library(dofs: &[usize], nu_active: &[bool; 6], n_cmd: usize) -> Vec<(u8, 
     let mut out = Vec::new();
     for d in dofs {
         for f in &forms {
-            // A DOF's own linear damping is a base parameter, not a term.
-            if *f != TermKind::Lin(*d as u8) {
+            // A DOF's own linear damping is a base parameter, not a term; so is its own
+            // quadratic drag when the base calibrates it (a term there would only
+            // compete with the calibration: a coefficient whose interval spans zero).
+            let own_quad = TermKind::ProdAbs(Sig::Nu(*d as u8), Sig::Nu(*d as u8));
+            let calibrated = quad_calibrated.get(*d).copied().unwrap_or(false);
+            if *f != TermKind::Lin(*d as u8) && !(calibrated && *f == own_quad) {
                 out.push((*d as u8, *f));
             }
         }
@@ -397,7 +407,12 @@ mod tests {
     #[test]
     fn formulas_and_ids_round_trip() {
         let names = ["port", "starboard", "vertical"];
-        let lib = library(&[2, 5], &[true, false, true, false, false, true], 3);
+        let lib = library(
+            &[2, 5],
+            &[true, false, true, false, false, true],
+            3,
+            &[false; 6],
+        );
         for (d, k) in &lib {
             let f = k.formula(&names);
             assert_eq!(TermKind::parse(&f, &names), Some(*k), "{f}");
@@ -412,6 +427,28 @@ mod tests {
             TermKind::Prod(Sig::Nu(5), Sig::Nu(5)).formula(&names),
             "r^2"
         );
+    }
+
+    #[test]
+    fn own_quadratic_drag_is_a_term_only_when_the_base_does_not_calibrate_it() {
+        let active = [true, false, true, false, false, true];
+        let own = |d: u8| (d, TermKind::ProdAbs(Sig::Nu(d), Sig::Nu(d)));
+        let free = library(&[2, 5], &active, 3, &[false; 6]);
+        assert!(free.contains(&own(2)) && free.contains(&own(5)));
+        let mut cal = [false; 6];
+        cal[2] = true;
+        let lib = library(&[2, 5], &active, 3, &cal);
+        assert!(
+            !lib.contains(&own(2)),
+            "heave's calibrated w|w| offered as a term"
+        );
+        assert!(
+            lib.contains(&own(5)),
+            "yaw's uncalibrated r|r| must stay a candidate"
+        );
+        // Cross-coupled drag on the calibrated DOF stays a candidate.
+        assert!(lib.contains(&(2, TermKind::ProdAbs(Sig::Nu(5), Sig::Nu(5)))));
+        assert_eq!(lib.len() + 1, free.len());
     }
 
     #[test]

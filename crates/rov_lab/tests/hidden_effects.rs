@@ -14,7 +14,7 @@
 
 mod common;
 
-use common::{Hidden, case_len};
+use common::{Hidden, case_len, planar_case};
 use rov_lab::diagnose::{DiagnoseOptions, diagnose};
 use rov_lab::{BaseKind, LabModel, Run};
 
@@ -377,5 +377,47 @@ fn deadzone_large() {
         },
         600.0,
         300.0,
+    );
+}
+
+/// A depth-sensor drift next to another effect (the probe's case 3: a planar model2 truth
+/// with weak reverse thrust on the horizontal thrusters and a 6 cm/min drift). The drift
+/// shows only in the free run (every re-initialised window removes it), so it must be
+/// judged there; with the asymmetry explaining the base's shooting misfit it was missed
+/// when both views had to improve.
+#[test]
+fn depth_drift_next_to_another_effect_is_found_in_the_free_run() {
+    let hidden = [Hidden::AsymHorizontal(0.7), Hidden::DepthDrift(6.0)];
+    let (tr, va) = planar_case("model2", 63, &hidden, TRAIN_S, VAL_S);
+    let tr = Run::from_series(&tr, "train").unwrap();
+    let va = Run::from_series(&va, "val").unwrap();
+    let m = LabModel::default_base(BaseKind::Model2).unwrap();
+    let d = diagnose(
+        &m,
+        "model2",
+        &[tr],
+        &[va],
+        &DiagnoseOptions {
+            threads: 1,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let keys: Vec<&str> = d.accepted.iter().map(|e| e.key()).collect();
+    let summary = format!("accepted {keys:?}: {}", d.summary);
+    assert!(keys.contains(&"thrust-asymmetry"), "{summary}");
+    assert!(keys.contains(&"depth-sensor-drift"), "{summary}");
+    let f = d
+        .findings
+        .iter()
+        .find(|f| f.effect == "depth-sensor-drift")
+        .unwrap();
+    // Found is what this test is about. The fitted rate is still low (3.2 cm/min on this
+    // seed: the asymmetry's fit with the base absorbs part of the drift), so the test
+    // asks for the right sign and order only, not the 35 % (a known weakness).
+    let rate = f.params["depth_drift_mps"].value;
+    assert!(
+        (0.4 * 6.0..=1.5 * 6.0).contains(&rate),
+        "drift {rate} cm/min vs 6: {summary}"
     );
 }

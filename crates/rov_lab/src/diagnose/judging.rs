@@ -88,6 +88,9 @@ pub(super) fn pinned_in(model: &LabModel, params: &[Param]) -> Option<(String, f
 ///   at least one view; and switching the effect's own term off again (base refit kept)
 ///   brings the error back (the "base refit only" control, as the two views' mean). At
 ///   least one explained channel must be a home channel of the fitted parameters.
+///   An effect the catalog judges in the free run alone (`EffectInfo::judged_in`: a
+///   sensor drift, which every re-initialised window removes) needs the reduction, the
+///   floor and the control in the free run only (open-loop data).
 /// * **made worse**: a channel whose RMSE rises by more than [`MAX_WORSE`] above the
 ///   floor in *either* view on its own, with its held-out prediction moved in that view
 ///   by at least [`WORSE_NOISE_FRACTION`] of its noise floor (RMS; a smaller change is
@@ -129,6 +132,13 @@ pub(super) fn judge(base: &Evaluation, c: &Confirmed, closed_loop: bool) -> Judg
     let mut home_hit = false;
     // Best home-channel reduction per view (for the reported view).
     let (mut best_shoot, mut best_free) = (f64::NEG_INFINITY, f64::NEG_INFINITY);
+    // An effect the re-anchored windows cannot show (the catalog's `judged_in`) is judged
+    // in the free run alone; closed-loop data has no free run, so both views stay the
+    // shooting one there.
+    let free_only = !closed_loop
+        && matches!(c.subject, Subject::Effect(e)
+            if e.info().judged_in == crate::catalog::JudgedIn::FreeRun);
+    let judged: &[usize] = if free_only { &[1] } else { &[0, 1] };
     for (k, b) in &base.channels {
         let Some(n) = c.eval.channels.get(k) else {
             continue;
@@ -148,20 +158,25 @@ pub(super) fn judge(base: &Evaluation, c: &Confirmed, closed_loop: bool) -> Judg
             best_free = best_free.max(red[1]);
         }
         let floor = b.noise * NOISE_FACTOR;
-        let above = bv.iter().any(|x| *x > floor);
+        let above = judged.iter().any(|v| bv[*v] > floor);
         let control_ok = match &c.control {
             None => true,
             Some(ctrl) => ctrl.channels.get(k).is_some_and(|cc| {
                 let cv = [cc.shooting.rmse, fr(cc.shooting.rmse, cc.free_run.rmse)];
                 let back = [cv[0] - nv[0], cv[1] - nv[1]];
-                let back_rel = 0.5
-                    * (if cv[0] > 0.0 { back[0] / cv[0] } else { 0.0 }
-                        + if cv[1] > 0.0 { back[1] / cv[1] } else { 0.0 });
-                back[0] + back[1] >= CONTROL_FRACTION * (bv[0] - nv[0] + bv[1] - nv[1])
-                    && back_rel >= MIN_REDUCTION
+                let n_views = judged.len() as f64;
+                let back_rel = judged
+                    .iter()
+                    .map(|v| if cv[*v] > 0.0 { back[*v] / cv[*v] } else { 0.0 })
+                    .sum::<f64>()
+                    / n_views;
+                let back_sum: f64 = judged.iter().map(|v| back[*v]).sum();
+                let gain_sum: f64 = judged.iter().map(|v| bv[*v] - nv[*v]).sum();
+                back_sum >= CONTROL_FRACTION * gain_sum && back_rel >= MIN_REDUCTION
             }),
         };
-        if above && red[0].min(red[1]) >= MIN_REDUCTION && control_ok {
+        let reduced = judged.iter().all(|v| red[*v] >= MIN_REDUCTION);
+        if above && reduced && control_ok {
             channels.push(*k);
             home_hit |= home.contains(&ch);
         }
@@ -223,8 +238,13 @@ pub(super) fn judge(base: &Evaluation, c: &Confirmed, closed_loop: bool) -> Judg
     let mut reason = String::new();
     if channels.is_empty() {
         reason = format!(
-            "no channel above its noise floor improved by {:.0} % on the held-out data in both the shooting and the free-run view with the effect's own term mattering",
-            MIN_REDUCTION * 100.0
+            "no channel above its noise floor improved by {:.0} % on the held-out data in {} with the effect's own term mattering",
+            MIN_REDUCTION * 100.0,
+            if free_only {
+                "the free-run view (the view its signature shows in)"
+            } else {
+                "both the shooting and the free-run view"
+            }
         );
     } else if !home_hit {
         reason = format!(

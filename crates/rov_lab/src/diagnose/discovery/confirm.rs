@@ -13,7 +13,12 @@ pub(in crate::diagnose) fn regress_one(
     id: &str,
 ) -> Result<TermPick, LabError> {
     let names = model.command_names();
-    let lib = library(&[0, 1, 2, 3, 4, 5], &model.nu_active(), names.len());
+    let lib = library(
+        &[0, 1, 2, 3, 4, 5],
+        &model.nu_active(),
+        names.len(),
+        &quad_calibrated(base_free),
+    );
     let Some((dof, kind)) = crate::terms::parse_term_id(id, &lib, &names) else {
         return Err(LabError::UnknownEffect {
             name: format!(
@@ -155,6 +160,14 @@ pub(in crate::diagnose) fn confirm_term(
     let limit = (2.0 * cap[pick.term.dof as usize])
         .max(0.05 * w * if pick.term.rotational() { 0.1 } else { 1.0 });
     let force = (fitted_term.coef * fitted_term.scale).abs();
+    // A coefficient whose 95 % interval contains zero is not a finding, whatever the
+    // held-out gain (the gain then comes from the base refit around it).
+    let ci_spans_zero = fit
+        .fitted
+        .iter()
+        .zip(&fit.params)
+        .find(|(_, q)| **q == p)
+        .and_then(|(f, _)| interval_refusal(f, fitted_term.force_unit()));
     let signature_failed = (force > limit).then(|| {
         format!(
             "its fitted size ({force:.2} {} at the term's typical value) exceeds twice what the thrusters can produce on {} ({:.2} {}): physically implausible, it stands in for something else",
@@ -164,6 +177,7 @@ pub(in crate::diagnose) fn confirm_term(
             fitted_term.force_unit()
         )
     });
+    let signature_failed = signature_failed.or(ci_spans_zero);
     let c = Confirmed {
         subject: Subject::Term(fitted_term),
         contained: false,
@@ -178,6 +192,22 @@ pub(in crate::diagnose) fn confirm_term(
     };
     let j = judge(base_eval, &c, closed_loop);
     Ok((c, j))
+}
+
+/// Why a term's fitted coefficient is not a finding when its 95 % interval (±1.96 σ)
+/// contains zero or is unknown (a non-finite σ); `None` when it excludes zero.
+pub(in crate::diagnose) fn interval_refusal(
+    f: &crate::calibrate::FittedParam,
+    unit: &str,
+) -> Option<String> {
+    let half = 1.96 * f.std;
+    let excludes_zero = half.is_finite() && f.value.is_finite() && f.value.abs() > half;
+    (!excludes_zero).then(|| {
+        format!(
+            "its coefficient's 95 % interval contains zero ({:.3} ± {:.3} {unit} at the term's typical value): the data do not show it",
+            f.value, half
+        )
+    })
 }
 
 /// What known physics a term resembles.
@@ -254,4 +284,31 @@ pub(in crate::diagnose) fn explain_term(
         t.force_unit(),
         resemblance(t)
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn fitted(value: f64, std: f64) -> crate::calibrate::FittedParam {
+        crate::calibrate::FittedParam {
+            key: "term_0_coefficient".into(),
+            value,
+            std,
+            unit: "N".into(),
+            at_bound: false,
+            initial: 0.0,
+        }
+    }
+
+    #[test]
+    fn a_term_whose_interval_contains_zero_is_refused() {
+        // Case 8 of the probe: heave w|w| at −4.1 ± 158.7 N was accepted.
+        let why = interval_refusal(&fitted(-4.1, 158.7 / 1.96), "N");
+        assert!(why.is_some_and(|w| w.contains("contains zero")));
+        assert!(interval_refusal(&fitted(0.3, 0.2), "N").is_some());
+        assert!(interval_refusal(&fitted(0.3, f64::NAN), "N").is_some());
+        assert!(interval_refusal(&fitted(0.3, 0.1), "N").is_none());
+        assert!(interval_refusal(&fitted(-0.3, 0.1), "N").is_none());
+    }
 }

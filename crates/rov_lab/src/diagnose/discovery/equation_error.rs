@@ -229,7 +229,7 @@ pub(super) fn equation_error(
     let dofs = observed_dofs(model, runs);
     let active = model.nu_active();
     let names = model.command_names();
-    let lib = library(&dofs, &active, names.len());
+    let lib = library(&dofs, &active, names.len(), &quad_calibrated(base_free));
     let mut data: Vec<DofData> = dofs
         .iter()
         .map(|d| DofData {

@@ -81,6 +81,20 @@ pub const NEAR_TIE: f64 = 0.9;
 /// Most terms confirmed per search round.
 pub const MAX_CONFIRM: usize = 3;
 
+/// The DOFs whose own quadratic drag the base calibrates (`Param::DragQuad` free): not
+/// library terms there.
+pub(super) fn quad_calibrated(base_free: &[Param]) -> [bool; 6] {
+    let mut out = [false; 6];
+    for p in base_free {
+        if let Param::DragQuad(a) = p
+            && let Some(o) = out.get_mut(a.index())
+        {
+            *o = true;
+        }
+    }
+    out
+}
+
 /// The equation-error data of one DOF.
 pub(super) struct DofData {
     pub(super) dof: usize,
