@@ -603,10 +603,10 @@ fn staged_fit_from(
         return Ok(noise_fit);
     }
     // The reweighting below must judge a converged fit: a channel a still-moving fit has
-    // not reached yet is not a structural misfit. Continue (at most twice more) until
-    // the noise-weighted fit has converged.
-    for _ in 0..2 {
-        if noise_fit.lm.converged {
+    // not reached yet is not a structural misfit. Continue until the noise-weighted fit
+    // has converged ([`another_round`]).
+    for round in 0..MAX_MORE_ROUNDS {
+        if !another_round(&noise_fit, round) {
             break;
         }
         noise_fit = fit(
@@ -663,8 +663,8 @@ fn staged_fit_from(
     )?;
     let s2 = structural_scales(runs, &misfit_scales(&first.model, runs, shooting)?);
     // Fresh Jacobians here: with channels down-weighted, parameters acting mostly on them
-    // are weakly determined, and rank-one updates let them wander. Continued (at most
-    // twice more) until converged, like the noise-weighted stage.
+    // are weakly determined, and rank-one updates let them wander. Continued until
+    // converged, like the noise-weighted stage.
     let mut last = fit_scaled(
         &first.model,
         runs,
@@ -679,8 +679,8 @@ fn staged_fit_from(
         None,
         &s2,
     )?;
-    for _ in 0..2 {
-        if last.lm.converged {
+    for round in 0..MAX_MORE_ROUNDS {
+        if !another_round(&last, round) {
             break;
         }
         last = fit_scaled(
@@ -696,6 +696,27 @@ fn staged_fit_from(
         )?;
     }
     Ok(last)
+}
+
+/// Rounds a multiple-shooting stage of [`staged_fit`] may be continued after its first
+/// fit (each a fresh LM search from where the previous one stopped).
+pub const MAX_MORE_ROUNDS: usize = 4;
+
+/// Rounds continued whenever the previous one ended unconverged.
+const UNCONVERGED_ROUNDS: usize = 2;
+
+/// After [`UNCONVERGED_ROUNDS`], a stage is continued only while its last round, still
+/// unconverged, lowered the cost by more than this fraction: on the 6-DOF base the
+/// noise-weighted stage can still gain 15 % a round after two continuations (probe case
+/// 15), and the structural reweighting must not judge a fit that is still moving.
+pub const CONTINUE_REL_DROP: f64 = 1e-3;
+
+/// Whether a stage whose fit after `round` continuations is `fit` gets another round.
+fn another_round(fit: &Calibration, round: usize) -> bool {
+    if fit.lm.converged {
+        return false;
+    }
+    round < UNCONVERGED_ROUNDS || fit.lm.cost0 - fit.lm.cost > CONTINUE_REL_DROP * fit.lm.cost0
 }
 
 /// Per-sample factors taking a weighted residual (layout of [`Objective`]) from the
