@@ -4,7 +4,9 @@
 //! dives "unexplained: pitch_rate 1.2× its noise floor": the calibration carried the
 //! parameters of the barely excited axes (pitch and roll damping, CG height, added
 //! masses) far from their documented priors into a basin worse on the training runs than
-//! the uncalibrated base — here the documented model3 is the truth, so its prior is right.
+//! the uncalibrated base — here the documented model3 is the truth, so its prior is right;
+//! and the verdict did not count the spread that a multiple-shooting window's start,
+//! smoothed from noisy readings, leaves on those lightly damped axes.
 
 mod common;
 
@@ -12,6 +14,7 @@ use rov_lab::calibrate::{View, calibrate, misfit_scales};
 use rov_lab::diagnose::{DiagnoseOptions, diagnose};
 use rov_lab::ingest::runs_from_text;
 use rov_lab::lm::LmOptions;
+use rov_lab::verdict::Verdict;
 use rov_lab::{BaseKind, LabModel, Run};
 
 /// A training and a held-out station dive (240 s each, other sensor noise) of the
@@ -63,6 +66,21 @@ fn calibration_on_a_calm_dive_ends_no_worse_than_the_documented_prior() {
     }
 }
 
+/// The documented model3 is this data's truth, so the verdict must find it adequate. Seeds
+/// 2, 5 and 6 were "unexplained" (roll rate 1.12×, pitch rate 1.14–1.38× their noise
+/// floors) before the verdict counted the spread the reset states' own smoothing error
+/// leaves ([`rov_lab::verdict::reset_spread`]): the documented model missed pitch rate by
+/// 1.31 noise floors in the shooting view and by 0.98 in the free run.
+#[test]
+fn the_verdict_finds_the_true_model_adequate_on_calm_dives() {
+    let base = LabModel::default_base(BaseKind::Model3).unwrap();
+    for seed in [2, 5, 6] {
+        let (tr, va) = dives(seed);
+        let d = diagnose(&base, "model3", &tr, &va, &DiagnoseOptions::default()).unwrap();
+        assert_eq!(d.verdict, Verdict::Adequate, "seed {seed}: {}", d.summary);
+    }
+}
+
 /// `TRAIN=d1.csv VAL=d2.csv`: the diagnosis of two recorded dives, with the calibrated
 /// parameters against their priors (design experiment, asserts nothing).
 #[test]
@@ -104,6 +122,50 @@ fn exp_recorded_dives() {
             c.level,
             c.level_critical,
             c.consistent
+        );
+    }
+}
+
+/// Verdicts of generated calm dives (`SEEDS=1,2,… FRAC=0.2`; design experiment, asserts
+/// nothing), with the documented model's own test on the held-out dive.
+#[test]
+#[ignore = "design experiment: prints verdicts; run with --ignored --nocapture"]
+fn exp_generated_dives() {
+    let seeds: Vec<u64> = std::env::var("SEEDS")
+        .ok()
+        .map(|s| s.split(',').filter_map(|x| x.parse().ok()).collect())
+        .unwrap_or_else(|| vec![1, 2, 3, 4, 5, 6]);
+    let frac: f64 = std::env::var("FRAC")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(0.0);
+    let base = LabModel::default_base(BaseKind::Model3).unwrap();
+    for seed in seeds {
+        let tr = common::station_dive_run(seed, seed, &[], frac, 240.0);
+        let va = common::station_dive_run(seed, seed + 100, &[], frac, 240.0);
+        let tr = runs_from_text(&tr.to_csv(), "train.csv").unwrap();
+        let va = runs_from_text(&va.to_csv(), "val.csv").unwrap();
+        let t = std::time::Instant::now();
+        let d = diagnose(&base, "model3", &tr, &va, &DiagnoseOptions::default()).unwrap();
+        let off: Vec<String> = d
+            .consistency
+            .iter()
+            .filter(|c| !c.consistent || c.channel.ends_with("_rate"))
+            .map(|c| {
+                format!(
+                    "{} {:.3} (s0 {:.3} floors){}",
+                    c.channel,
+                    c.ratio,
+                    c.noise.hypot(c.param_spread) / c.noise,
+                    if c.consistent { "" } else { " INCONSISTENT" }
+                )
+            })
+            .collect();
+        println!(
+            "seed {seed}: {:.1?} {} | {}",
+            t.elapsed(),
+            d.verdict.name(),
+            off.join(", ")
         );
     }
 }
