@@ -10,9 +10,12 @@
 //!    move to their maximum a posteriori point on the training runs (a Gauss–Newton step
 //!    with the documented priors), so a vehicle whose fixed parameters differ from the
 //!    base file's within their documented σ is not mistaken for a misfit. The steps
-//!    below test that refit (or the model as it is, when that already passes).
+//!    below test that refit — or the model as it is, when that already passes within
+//!    the noise alone, or passes in more channels, or in as many while closer to the
+//!    held-out data in noise floors (Σ_c (RMSE_c/σ_n,c)²).
 //! 1. **Expected level.** Under H₀ e is sensor noise plus the prediction error that
-//!    parameter uncertainty and the inputs' resolution allow: s₀² = σ_n² + σ_θ² + σ_u²,
+//!    parameter uncertainty, the inputs' resolution and the windows' start states allow:
+//!    s₀² = σ_n² + σ_θ² + σ_u² + σ_x²,
 //!    where σ_n is the channel's noise floor estimated from the data (never below the
 //!    quantisation floor q/√12 of a signal recorded on a lattice of step q,
 //!    [`crate::analysis::quantisation_floor`]); σ_θ² the mean prediction variance from
@@ -23,7 +26,10 @@
 //!    and σ_u the spread the recorded commands' own uncertainty leaves ([`input_spread`]:
 //!    their resolution — a Pro 4 runs whole percent, a station log records the
 //!    autopilot's unrounded demand — and their timing, aligned with the measurements
-//!    only to within one sample).
+//!    only to within one sample); and σ_x the spread the multiple-shooting windows'
+//!    start states leave ([`reset_spread`]: each window starts from readings smoothed over
+//!    ±0.3 s, off by their smoothing error, and a lightly damped axis such as pitch on its
+//!    restoring moment rings from such a start for seconds).
 //! 2. **Level test.** With N_eff the effective sample size of e (Bartlett: N / (1 + 2 Σ
 //!    ρ_k) over the lags before the autocorrelation first turns negative), N_eff·MS/s₀²
 //!    is χ²(N_eff) under H₀. The level is consistent when MS/s₀² ≤ χ²_{1−α/m}(N_eff)/N_eff
@@ -70,7 +76,7 @@ use crate::sim::Prediction;
 mod null;
 pub use null::{
     KnownJacobian, NullRefit, PRO4_COMMAND_RESOLUTION_PCT, input_spread, null_refit,
-    null_refit_from,
+    null_refit_from, reset_spread,
 };
 
 /// Family-wise significance level of the level test.
@@ -139,8 +145,8 @@ pub struct ChannelTest {
     pub rmse: f64,
     /// Noise floor σ_n.
     pub noise: f64,
-    /// Prediction spread the test allows besides the noise: √(σ_θ² + σ_u²), parameter
-    /// uncertainty and the commands' resolution.
+    /// Prediction spread the test allows besides the noise: √(σ_θ² + σ_u² + σ_x²),
+    /// parameter uncertainty, the commands' resolution and the windows' start states.
     pub param_spread: f64,
     /// RMSE / σ_n.
     pub ratio: f64,

@@ -42,10 +42,13 @@ residual e (spikes excluded) is tested against H0 \"the model is right up to its
 parameters' documented uncertainty\":
   0. H0 fitted first: the free parameters and the documented-uncertain fixed ones are
      refitted to their maximum a posteriori point on the training runs (one Gauss-Newton
-     step with the documented priors); the steps below test that refit.
-  1. Expected level s0^2 = sigma_n^2 + sigma_theta^2: the channel's noise floor (never
-     below q/sqrt(12) for a signal recorded on a lattice of step q) plus the prediction
-     variance the parameter uncertainty allows (posterior of the same parameters).
+     step with the documented priors); the steps below test that refit, or the model as
+     it is when that passes in more channels (in as many: the one closer to the data).
+  1. Expected level s0^2 = sigma_n^2 + sigma_theta^2 + sigma_u^2 + sigma_x^2: the
+     channel's noise floor (never below q/sqrt(12) for a signal recorded on a lattice of
+     step q) plus the prediction variance the parameter uncertainty allows (posterior of
+     the same parameters), the commands' resolution and timing allow, and the windows'
+     start states (smoothed readings, off by their smoothing error) allow.
   2. Level test: N_eff*MS/s0^2 ~ chi^2(N_eff), N_eff the Bartlett effective sample size;
      consistent when MS/s0^2 <= chi^2_{1-a/m}(N_eff)/N_eff, a = 0.01 Bonferroni over the m
      tested channels.

@@ -683,8 +683,8 @@ struct Tested {
 /// the model as it is, when every channel already passes within its noise alone (the
 /// strictest form); otherwise its H₀ refit with the parameter and input spread
 /// ([`verdict::null_refit`], [`verdict::input_spread`]) — or the model as it is with that
-/// spread, when that leaves fewer channels inconsistent (both are the model within its
-/// parameter uncertainty).
+/// spread, when that leaves fewer channels inconsistent, or as few while closer to the
+/// held-out data in noise floors (both are the model within its parameter uncertainty).
 #[allow(clippy::too_many_arguments)]
 fn tested(
     model: &LabModel,
@@ -719,8 +719,18 @@ fn tested(
     }
     let refit = verdict::test_channels(&null.model, val, &null.eval, &spread);
     let as_is = verdict::test_channels(model, val, eval, &spread);
+    // Fewer inconsistent channels first; on a tie, the one closer to the held-out data in
+    // noise floors (Σ_c (RMSE_c/σ_n,c)²): both pass the test alike, and a refit that
+    // trades one channel for another within a wide parameter spread is not preferred.
     let bad = |t: &[verdict::ChannelTest]| t.iter().filter(|c| !c.consistent).count();
-    Ok(if bad(&as_is) < bad(&refit) {
+    let distance =
+        |t: &[verdict::ChannelTest]| -> f64 { t.iter().map(|c| c.ratio * c.ratio).sum() };
+    let as_is_favoured = match bad(&as_is).cmp(&bad(&refit)) {
+        std::cmp::Ordering::Less => true,
+        std::cmp::Ordering::Equal => distance(&as_is) < distance(&refit),
+        std::cmp::Ordering::Greater => false,
+    };
+    Ok(if as_is_favoured {
         Tested {
             tests: as_is,
             model: model.clone(),

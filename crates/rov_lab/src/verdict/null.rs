@@ -19,7 +19,8 @@
 //! uses. One Gauss–Newton step from the model under test (the step halved until P falls,
 //! at most twice; bounds respected) — the ridge null fit the term screening uses, taken
 //! to the model. The same linearisation gives the posterior covariance (in noise
-//! weights) behind σ_θ, the prediction spread the test allows.
+//! weights) behind σ_θ, the prediction spread the test allows; the spread the windows'
+//! start states leave, σ_x ([`reset_spread`]), is added to it.
 
 use nalgebra::{DMatrix, DVector};
 use rov_dynamics::models::Channel;
@@ -42,7 +43,8 @@ pub struct NullRefit {
     pub model: LabModel,
     /// Its held-out evaluation.
     pub eval: Evaluation,
-    /// σ_θ per channel (index as [`Channel::ALL`]).
+    /// √(σ_θ² + σ_x²) per channel (index as [`Channel::ALL`]): the prediction spread of
+    /// the parameters under H₀ and of the reset states ([`reset_spread`]).
     pub spread: [f64; N_CHANNELS],
     /// Parameters the refit moved by at least half their prior σ: (key, from, to), display
     /// units.
@@ -126,10 +128,14 @@ pub fn null_refit(
     }
     let (refit, moved, cov) = map_step(model, &all, &j, &r0, &obj, train, scales)?;
     let eval = evaluate(&refit, val)?;
-    let spread = match &cov {
+    let mut spread = match &cov {
         Some(cov) => prediction_spread(&refit, &all, val, &eval.shooting, cov, threads),
         None => [0.0; N_CHANNELS],
     };
+    let reset = reset_spread(&refit, val, &eval.shooting, threads);
+    for (s, x) in spread.iter_mut().zip(reset) {
+        *s = s.hypot(x);
+    }
     Ok(NullRefit {
         model: refit,
         eval,
@@ -368,6 +374,129 @@ fn prediction_spread(
     for i in 0..N_CHANNELS {
         if cnt[i] > 0 {
             out[i] = (var[i] / cnt[i] as f64).sqrt();
+        }
+    }
+    out
+}
+
+/// The measured state a multiple-shooting reset takes from the data ([`crate::sim`]'s
+/// re-initialisation: positions and angles, measured rates and body velocities).
+const RESET_CHANNELS: [Channel; 12] = Channel::ALL;
+
+/// The smoothed reading's standard error at sample `k` in units of the channel's noise
+/// floor: √(e₁ᵀ(ΦᵀΦ)⁻¹e₁) of the local quadratic least-squares fit over ±0.3 s that
+/// [`Run::smooth`] holds (white noise; the leverage of the fit at its centre — about
+/// 0.42 for 13 samples at 20 Hz).
+fn smoothing_error(t: &[f64], y: &[f64], k: usize) -> Option<f64> {
+    let tk = *t.get(k)?;
+    let mut s = nalgebra::Matrix3::<f64>::zeros();
+    let mut n = 0usize;
+    for (tj, yj) in t.iter().zip(y) {
+        let x = tj - tk;
+        if x.abs() > 0.3 + 1e-9 || !yj.is_finite() {
+            continue;
+        }
+        let phi = nalgebra::Vector3::new(1.0, x, x * x);
+        s += phi * phi.transpose();
+        n += 1;
+    }
+    if n < 4 {
+        return None;
+    }
+    let inv = s.try_inverse()?;
+    let h = inv[(0, 0)];
+    (h.is_finite() && h > 0.0).then(|| h.min(1.0).sqrt())
+}
+
+/// σ_x per channel: the prediction spread that the reset states' own uncertainty leaves.
+/// Every multiple-shooting window starts from the smoothed readings at its first sample
+/// ([`crate::sim`]), each off by its smoothing error (the channel's noise floor times
+/// [`smoothing_error`]); a lightly damped axis (pitch and roll on their restoring
+/// moment) rings from such a start for seconds, which the noise floor does not cover
+/// (on a calm station dive the documented model3, the simulator's own vehicle, missed
+/// pitch rate by 1.3 noise floors in the shooting view and by 0.98 in the free run). Per
+/// reset channel one simulation with every window's start moved by its smoothing error
+/// (windows restart independently, so one run gives every window's sensitivity); the
+/// mean squared prediction changes are added over the reset channels (independent errors,
+/// linearised). The run-start sample, which the data takes from a line over the first
+/// rest instead, is counted with the same centred error (an approximation).
+pub fn reset_spread(
+    model: &LabModel,
+    val: &[Run],
+    pred: &[Prediction],
+    threads: usize,
+) -> [f64; N_CHANNELS] {
+    let view = View::Shooting(SHOOTING_WINDOW_S);
+    let jobs: Vec<(usize, Channel)> = val
+        .iter()
+        .enumerate()
+        .flat_map(|(ri, run)| {
+            RESET_CHANNELS
+                .iter()
+                .filter(|ch| run.smooth[ch_index(**ch)].is_some() && run.has(**ch))
+                .map(move |ch| (ri, *ch))
+        })
+        .collect();
+    let per_job: Vec<Option<[(f64, usize); N_CHANNELS]>> =
+        crate::diagnose::par_map(jobs.len(), threads, |j| {
+            let (ri, ch) = jobs[j];
+            let run = &val[ri];
+            let i = ch_index(ch);
+            let y = run.y[i].as_ref()?;
+            let resets = view.resets(run);
+            let mut moved = run.clone();
+            let sm = moved.smooth[i].as_mut()?;
+            for &k in &resets {
+                if let (Some(f), Some(v)) = (smoothing_error(&run.t, y, k), sm.get_mut(k)) {
+                    *v += f * run.noise[i];
+                }
+            }
+            let pr = simulate_run(model, &moved, &resets).ok()?;
+            let base = pred.get(ri)?;
+            let mut out = [(0.0, 0usize); N_CHANNELS];
+            for c in Channel::ALL {
+                if let (Some(a), Some(b)) = (pr.channel(c), base.channel(c)) {
+                    let o = &mut out[ch_index(c)];
+                    for (x, y) in a.iter().zip(b) {
+                        let d = residual(c, *y, *x);
+                        if d.is_finite() {
+                            o.0 += d * d;
+                            o.1 += 1;
+                        }
+                    }
+                }
+            }
+            Some(out)
+        });
+    // Per channel: the variances of the reset channels added (per run, each variant's
+    // mean square), pooled over the runs by sample count.
+    let mut var = [0.0; N_CHANNELS];
+    let mut cnt = [0usize; N_CHANNELS];
+    for (ri, run) in val.iter().enumerate() {
+        let mut sum = [0.0; N_CHANNELS];
+        let mut seen = [false; N_CHANNELS];
+        for (j, (r, _)) in jobs.iter().enumerate() {
+            if *r != ri {
+                continue;
+            }
+            if let Some(Some(o)) = per_job.get(j) {
+                for c in 0..N_CHANNELS {
+                    if o[c].1 > 0 {
+                        sum[c] += o[c].0 / o[c].1 as f64;
+                        seen[c] = true;
+                    }
+                }
+            }
+        }
+        for c in (0..N_CHANNELS).filter(|c| seen[*c]) {
+            var[c] += sum[c] * run.len() as f64;
+            cnt[c] += run.len();
+        }
+    }
+    let mut out = [0.0; N_CHANNELS];
+    for c in 0..N_CHANNELS {
+        if cnt[c] > 0 {
+            out[c] = (var[c] / cnt[c] as f64).sqrt();
         }
     }
     out

@@ -592,18 +592,76 @@ pub fn closed_loop_run(
     hidden: &[Hidden],
     duration_s: f64,
 ) -> MeasurementSeries {
-    use rov_control::{ControlConfig, Controller, Measurements, ModeCommand, ModelSet, PilotInput};
     let (mut sim, sensors) = truth_simulator(seed, noise_seed, hidden, 0.2);
+    let mut rng = StdRng::seed_from_u64(seed ^ 0xC105_ED10);
+    let (mut depth_sp, mut heading_sp) = (5.0f64, 30.0f64);
+    let mut next_change = 0.0;
+    let plan = move |t: f64, rng: &mut StdRng| -> Option<(f64, f64, f64)> {
+        if t < next_change {
+            return None;
+        }
+        depth_sp = (depth_sp + rng.random_range(-1.5..1.5)).clamp(2.0, 8.0);
+        heading_sp = (heading_sp + rng.random_range(-40.0..40.0)).rem_euclid(360.0);
+        let surge = [0.0, 0.15, 0.3, -0.15][rng.random_range(0..4usize)];
+        next_change += 20.0;
+        Some((depth_sp, heading_sp, surge))
+    };
+    fly_closed_loop(&mut sim, &sensors, &mut rng, duration_s, (4, 6), plan)
+}
+
+/// A station dive as `topside record --sim` flies it without a script (its built-in
+/// dive, relative to the start at 5 m and 30°): holds at 2 s, forward at 40 % from 15 to
+/// 25 s, a step of +2 m and +90° at 30 s, then held to the end; the station's own
+/// autopilot (default configuration) in the loop, one sample every 50 ms. A calm dive: the
+/// depth hold barely moves pitch or roll. The truth is model3 perturbed by up to ±`frac`
+/// (0: the documented model3, the station simulator's own vehicle); no sensor-side
+/// hidden effects or quantisation, as [`closed_loop_run`].
+pub fn station_dive_run(
+    seed: u64,
+    noise_seed: u64,
+    hidden: &[Hidden],
+    frac: f64,
+    duration_s: f64,
+) -> MeasurementSeries {
+    let (mut sim, sensors) = truth_simulator(seed, noise_seed, hidden, frac);
+    let mut rng = StdRng::seed_from_u64(noise_seed ^ 0x57A7_1011);
+    let script = [
+        (2.0, 5.0, 30.0, 0.0),
+        (15.0, 5.0, 30.0, 0.4),
+        (25.0, 5.0, 30.0, 0.0),
+        (30.0, 7.0, 120.0, 0.0),
+    ];
+    let mut next = 0usize;
+    let plan = move |t: f64, _: &mut StdRng| -> Option<(f64, f64, f64)> {
+        let (t0, d, h, u) = *script.get(next)?;
+        (t >= t0).then(|| {
+            next += 1;
+            (d, h, u)
+        })
+    };
+    fly_closed_loop(&mut sim, &sensors, &mut rng, duration_s, (5, 5), plan)
+}
+
+/// Flies the station's autopilot (`rov_control::Controller`, default configuration) on a
+/// simulator: `plan(t, rng)` gives new depth and heading set-points and a surge stick
+/// when they change; the simulator steps a number of 10 ms steps drawn from `steps`
+/// (inclusive) between samples. The record is what the autopilot saw.
+fn fly_closed_loop(
+    sim: &mut Simulator,
+    sensors: &rov_dynamics::sensors::SensorConfig,
+    rng: &mut StdRng,
+    duration_s: f64,
+    steps: (u32, u32),
+    mut plan: impl FnMut(f64, &mut StdRng) -> Option<(f64, f64, f64)>,
+) -> MeasurementSeries {
+    use rov_control::{ControlConfig, Controller, Measurements, ModeCommand, ModelSet, PilotInput};
     let mut ctl =
         Controller::new(ControlConfig::default(), ModelSet::load_default().unwrap()).unwrap();
-    let mut rng = StdRng::seed_from_u64(seed ^ 0xC105_ED10);
     let mut series = MeasurementSeries {
         present: [true; 8],
         ..Default::default()
     };
-    let (mut depth_sp, mut heading_sp) = (5.0f64, 30.0f64);
     let mut pilot = PilotInput::default();
-    let mut next_change = 0.0;
     let mut first = true;
     while sim.time_s() < duration_s {
         let t = sim.time_s();
@@ -617,26 +675,20 @@ pub fn closed_loop_run(
             ctl.tick(t, &meas, &pilot);
             first = false;
         }
-        if t >= next_change {
-            depth_sp = (depth_sp + rng.random_range(-1.5..1.5)).clamp(2.0, 8.0);
-            heading_sp = (heading_sp + rng.random_range(-40.0..40.0)).rem_euclid(360.0);
-            pilot.surge = [0.0, 0.15, 0.3, -0.15][rng.random_range(0..4usize)];
-            ctl.command(ModeCommand::SetDepth { depth_m: depth_sp })
+        if let Some((depth_m, heading_deg, surge)) = plan(t, rng) {
+            pilot.surge = surge;
+            ctl.command(ModeCommand::SetDepth { depth_m }).unwrap();
+            ctl.command(ModeCommand::SetHeading { heading_deg })
                 .unwrap();
-            ctl.command(ModeCommand::SetHeading {
-                heading_deg: heading_sp,
-            })
-            .unwrap();
-            next_change += 20.0;
         }
         let out = ctl.tick(t, &meas, &pilot);
         let c = out.command;
         let cmd = ThrustPct::new(c.port_pct(), c.starboard_pct(), c.vertical_pct());
-        let mut row = rov_sim::series::row_from_readings(&r, &cmd, &sensors);
+        let mut row = rov_sim::series::row_from_readings(&r, &cmd, sensors);
         row.time_s = t;
         series.rows.push(row);
         sim.set_command(cmd).unwrap();
-        for _ in 0..rng.random_range(4..=6u32) {
+        for _ in 0..rng.random_range(steps.0..=steps.1) {
             sim.step().unwrap();
         }
     }
