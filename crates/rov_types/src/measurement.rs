@@ -227,6 +227,7 @@ impl MeasurementSeries {
         let mut series = MeasurementSeries::default();
         let mut slots = Vec::with_capacity(names.len());
         let mut seen_req = [false; 8];
+        let mut ignored: Vec<&str> = Vec::new();
         for name in &names {
             if let Some(i) = REQUIRED_COLUMNS.iter().position(|c| c == name) {
                 if seen_req.get(i).copied().unwrap_or(false) {
@@ -251,11 +252,12 @@ impl MeasurementSeries {
                 }
                 slots.push(Slot::Optional(i));
             } else {
-                series.warnings.push(format!(
-                    "{file}: column {name:?} is not part of the measurement format; ignored"
-                ));
+                ignored.push(*name);
                 slots.push(Slot::Ignored);
             }
+        }
+        if let Some(w) = ignored_columns_note(file, &ignored) {
+            series.warnings.push(w);
         }
         for (i, seen) in seen_req.iter().enumerate() {
             if !seen {
@@ -371,6 +373,45 @@ impl MeasurementSeries {
     }
 }
 
+/// One note for every column outside the measurement format. A session export
+/// (`topside export --csv`) adds one `topic.field` column per decoded channel, about 75 of
+/// them: those are named per topic (`autopilot_state.* (5)`), so the note stays one line
+/// and still says exactly what was left out.
+fn ignored_columns_note(file: &str, ignored: &[&str]) -> Option<String> {
+    match ignored {
+        [] => None,
+        [one] => Some(format!(
+            "{file}: column {one:?} is not part of the measurement format; ignored"
+        )),
+        many => {
+            // (prefix, count, the single name when the group has one column), in order.
+            let mut groups: Vec<(&str, usize, &str)> = Vec::new();
+            for name in many {
+                let prefix = name.split_once('.').map_or(*name, |(p, _)| p);
+                match groups.iter_mut().find(|(p, _, _)| *p == prefix) {
+                    Some(g) => g.1 += 1,
+                    None => groups.push((prefix, 1, name)),
+                }
+            }
+            let listed: Vec<String> = groups
+                .iter()
+                .map(|(prefix, n, first)| {
+                    if *n == 1 {
+                        format!("{first:?}")
+                    } else {
+                        format!("{prefix}.* ({n})")
+                    }
+                })
+                .collect();
+            Some(format!(
+                "{file}: {} columns are not part of the measurement format; ignored: {}",
+                many.len(),
+                listed.join(", ")
+            ))
+        }
+    }
+}
+
 fn push_num(out: &mut String, x: f64) {
     crate::number::push_f64(out, x);
 }
@@ -404,6 +445,21 @@ mod tests {
         assert!(s.present[OptionalChannel::YawRateDps as usize]);
         assert_eq!(s.warnings.len(), 1);
         assert!(s.warnings[0].contains("extra"));
+    }
+
+    #[test]
+    fn many_extra_columns_make_one_note_grouped_by_topic() {
+        let text = "time_s,port_pct,starboard_pct,vertical_pct,depth_m,heading_deg,\
+                    roll_deg,pitch_deg,a.x,a.y,a.z,b.only,loose\n\
+                    0,0,0,0,1,0,0,0,1,2,3,4,5\n";
+        let s = MeasurementSeries::parse_csv(text, "dive.csv").unwrap();
+        assert_eq!(s.warnings.len(), 1, "{:?}", s.warnings);
+        assert_eq!(
+            s.warnings[0],
+            "dive.csv: 5 columns are not part of the measurement format; ignored: \
+             a.* (3), \"b.only\", \"loose\""
+        );
+        assert_eq!(s.rows.len(), 1);
     }
 
     #[test]
