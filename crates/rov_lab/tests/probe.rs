@@ -200,6 +200,18 @@ fn cases() -> Vec<Case> {
             expect: vec![],
             params: vec![],
         },
+        // hidden_effects.rs's tether_small: a right finding that trades depth and roll
+        // for heading on a base that misses several channels (the structural-base veto's
+        // boundary).
+        Case {
+            id: 17,
+            base: BaseKind::Model3,
+            seed: 11,
+            hidden: vec![Hidden::Tether(0.3, 60.0)],
+            data: Data::OpenLoop,
+            expect: vec!["tether"],
+            params: vec![("tether", "tether_east_n", 0.3 * 0.866)],
+        },
         // Effect-free planar truths (false findings on the planar bases).
         Case {
             id: 11,

@@ -220,12 +220,23 @@ impl<'a> Greedy<'a> {
             }
             judged.push((c, j));
         }
+        let inadequate = self.inadequacy();
+        for (_, j) in &mut judged {
+            veto_on_inadequate_base(j, inadequate.as_ref());
+        }
         judged.sort_by(|a, b| {
             b.1.significant
                 .cmp(&a.1.significant)
                 .then(b.1.score.total_cmp(&a.1.score))
         });
         judged
+    }
+
+    /// Whether the current model is structurally inadequate for the data
+    /// ([`inadequacy`] of its held-out evaluation): then a finding that makes another
+    /// excited channel clearly worse is refused ([`veto_on_inadequate_base`]).
+    pub(super) fn inadequacy(&self) -> Option<Inadequacy> {
+        inadequacy(&self.current_eval, self.closed_loop)
     }
 
     /// Makes a confirmed candidate part of the model and reweights for the next round.
@@ -238,6 +249,12 @@ impl<'a> Greedy<'a> {
         self.current = c.fit.model.clone();
         self.current_eval = c.eval.clone();
         let new_scales = ViewScales::of_model(&self.current, self.train)?;
+        self.rescale(new_scales);
+        Ok(())
+    }
+
+    /// Moves the screening caches and the weights to new channel scales.
+    fn rescale(&mut self, new_scales: ViewScales) {
         for (cache, view) in [
             (&mut self.cache_short, short_view(self.train)),
             (&mut self.cache_shoot, View::Shooting(SHOOTING_WINDOW_S)),
@@ -253,6 +270,5 @@ impl<'a> Greedy<'a> {
             );
         }
         self.scales = new_scales;
-        Ok(())
     }
 }

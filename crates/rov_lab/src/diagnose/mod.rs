@@ -107,6 +107,18 @@ pub const MIN_DBIC: f64 = 10.0;
 pub const CONTROL_FRACTION: f64 = 0.1;
 /// A thruster lag shorter than this fraction of the sample period is not resolvable.
 pub const LAG_RESOLUTION: f64 = 0.5;
+/// A model is structurally inadequate for the data when it misses at least
+/// [`INADEQUATE_CHANNELS`] excited channels by more than this many noise floors
+/// (multiple-shooting held-out RMSE): a finding that leaves it so ([`INADEQUATE_SHARE`])
+/// and makes another excited channel clearly worse is then refused
+/// (`judging::veto_on_inadequate_base`).
+pub const INADEQUATE_FACTOR: f64 = 2.0;
+/// See [`INADEQUATE_FACTOR`].
+pub const INADEQUATE_CHANNELS: usize = 2;
+/// A finding leaves a base structurally inadequate when the channels still beyond
+/// [`INADEQUATE_FACTOR`] floors with it carry at least this share of the base's misfit
+/// beyond that level (`judging::Inadequacy::left_by`).
+pub const INADEQUATE_SHARE: f64 = 0.25;
 /// Cosine similarity of prediction changes above which two findings are ambiguous.
 pub const AMBIGUITY_COSINE: f64 = 0.9;
 
@@ -432,6 +444,10 @@ pub fn diagnose(
         .flatten()
         .collect();
         let mut judged = judged;
+        let inadequate = g.inadequacy();
+        for (_, j) in &mut judged {
+            veto_on_inadequate_base(j, inadequate.as_ref());
+        }
         judged.sort_by(|a, b| {
             b.1.significant
                 .cmp(&a.1.significant)
@@ -625,6 +641,29 @@ pub fn diagnose(
     } else {
         format!("{summary} ({})", traded.join("; "))
     };
+    // A structurally inadequate base (`judging::inadequacy`): said, with what it refused.
+    let refused: Vec<(String, Vec<String>)> = findings
+        .iter()
+        .filter(|f| !f.significant)
+        .filter_map(|f| {
+            let chans: Vec<String> = f
+                .conflicts
+                .iter()
+                .filter(|c| c.contains(BASE_VETO_MARK))
+                .filter_map(|c| c.split(" gets ").next().map(str::to_string))
+                .collect();
+            (!chans.is_empty()).then(|| (f.effect.clone(), chans))
+        })
+        .collect();
+    let base_note = inadequacy_note(
+        inadequacy(&base_eval, closed_loop).as_ref(),
+        inadequacy(&g.current_eval, closed_loop).as_ref(),
+        &refused,
+    );
+    let summary = match &base_note {
+        Some(n) if !matches!(verdict, Verdict::Explained) => format!("{summary}. Note: {n}"),
+        _ => summary,
+    };
     let mut data_notes = crate::ingest::treatment_sentences(train);
     for s in crate::ingest::treatment_sentences(val) {
         if !data_notes.contains(&s) {
@@ -632,6 +671,7 @@ pub fn diagnose(
         }
     }
     let mut calibration_notes = crate::calibrate::calibration_notes(&cal, train);
+    calibration_notes.extend(base_note);
     if !final_tested.moved.is_empty() {
         let moved: Vec<String> = final_tested
             .moved
@@ -860,6 +900,8 @@ pub fn add_to_model(
             &g.scales,
             closed_loop,
         )?;
+        let mut j = j;
+        veto_on_inadequate_base(&mut j, g.inadequacy().as_ref());
         let Subject::Term(t) = c.subject else {
             continue;
         };
