@@ -129,8 +129,8 @@ fn cases() -> Vec<Case> {
             seed: 67,
             hidden: vec![Hidden::YawHeaveSq(0.5)],
             data: Data::PlanarOpenLoop,
-            expect: vec!["term:5:"],
-            params: vec![("term:5:", "coefficient", 0.5)],
+            expect: vec!["term:yaw:w_absw"],
+            params: vec![("term:yaw:w_absw", "coefficient", 0.5)],
         },
         Case {
             id: 8,
@@ -211,6 +211,20 @@ fn cases() -> Vec<Case> {
             data: Data::OpenLoop,
             expect: vec!["tether"],
             params: vec![("tether", "tether_east_n", 0.3 * 0.866)],
+        },
+        // nulls_and_pairs.rs's two simultaneous effects (the structural-base veto's
+        // other boundary: the second effect's channels stay missed).
+        Case {
+            id: 18,
+            base: BaseKind::Model3,
+            seed: 31,
+            hidden: vec![Hidden::AsymVertical(0.55), Hidden::TorqueV(0.0012)],
+            data: Data::OpenLoop,
+            expect: vec!["thrust-asymmetry", "propeller-torque"],
+            params: vec![
+                ("thrust-asymmetry", "reverse_ratio_vertical", 0.55),
+                ("propeller-torque", "torque_vertical_m", 1.2),
+            ],
         },
         // Effect-free planar truths (false findings on the planar bases).
         Case {

@@ -220,10 +220,6 @@ impl<'a> Greedy<'a> {
             }
             judged.push((c, j));
         }
-        let inadequate = self.inadequacy();
-        for (_, j) in &mut judged {
-            veto_on_inadequate_base(j, inadequate.as_ref());
-        }
         judged.sort_by(|a, b| {
             b.1.significant
                 .cmp(&a.1.significant)
@@ -237,6 +233,24 @@ impl<'a> Greedy<'a> {
     /// excited channel clearly worse is refused ([`veto_on_inadequate_base`]).
     pub(super) fn inadequacy(&self) -> Option<Inadequacy> {
         inadequacy(&self.current_eval, self.closed_loop)
+    }
+
+    /// The state an [`Greedy::accept`] changes, to go back to ([`Greedy::restore`]).
+    pub(super) fn snapshot(&self) -> Snapshot {
+        Snapshot {
+            current: self.current.clone(),
+            current_eval: self.current_eval.clone(),
+            current_free: self.current_free.clone(),
+            scales: self.scales,
+        }
+    }
+
+    /// Goes back to a [`Greedy::snapshot`] (undoes the acceptances since).
+    pub(super) fn restore(&mut self, s: Snapshot) {
+        self.current = s.current;
+        self.current_eval = s.current_eval;
+        self.current_free = s.current_free;
+        self.rescale(s.scales);
     }
 
     /// Makes a confirmed candidate part of the model and reweights for the next round.
@@ -271,4 +285,13 @@ impl<'a> Greedy<'a> {
         }
         self.scales = new_scales;
     }
+}
+
+/// The part of the greedy state an acceptance changes.
+#[derive(Clone)]
+pub(super) struct Snapshot {
+    current: LabModel,
+    current_eval: Evaluation,
+    current_free: Vec<Param>,
+    scales: ViewScales,
 }

@@ -26,8 +26,9 @@ pub(super) struct Judgement {
     pub(super) reason: String,
     /// Channels the candidate makes clearly worse in either view, in words.
     pub(super) conflicts: Vec<String>,
-    /// For each of `conflicts` (same order): the channel, and whether it is excited and
-    /// worse in the multiple-shooting view (what [`veto_on_inadequate_base`] weighs).
+    /// For each of `conflicts` (same order): the channel, and whether it is excited,
+    /// worse in the multiple-shooting view and not within rule (b)'s tolerance (what
+    /// [`veto_on_inadequate_base`] weighs).
     pub(super) conflict_channels: Vec<(String, bool)>,
     /// What the base still misses with this finding granted ([`Inadequacy::left_by`]).
     pub(super) leaves: Option<Inadequacy>,
@@ -215,8 +216,12 @@ pub(super) fn judge(base: &Evaluation, c: &Confirmed, closed_loop: bool) -> Judg
             // worse explains it no better than one that makes another channel worse), in
             // the multiple-shooting view: the verdict's view, where a rise is not the
             // free run's accumulation of a small trade.
-            let other_excited =
-                channel_excited(b, closed_loop) && w.views.iter().any(|(v, _)| *v == 0);
+            // Rule (b)'s tolerance (a channel the base already misses structurally, the
+            // rise small against that misfit) stands: another missing effect's channel
+            // moves with any refit (two simultaneous effects).
+            let other_excited = channel_excited(b, closed_loop)
+                && w.views.iter().any(|(v, _)| *v == 0)
+                && !w.structural;
             worsened_channels.push((name.clone(), views.join(" and "), w, other_excited));
         }
         score += 0.5 * (((bv[0] - nv[0]) / sigma).max(0.0) + ((bv[1] - nv[1]) / sigma).max(0.0));
@@ -413,14 +418,17 @@ pub(super) const BASE_VETO_MARK: &str = "the base is structurally inadequate for
 /// channels included) clearly worse — a conflict of [`judge`] in the multiple-shooting
 /// view, the verdict's: worse there by more than [`MAX_WORSE`] above the floor, its
 /// prediction moved beyond noise — is refused, not only reported. On such a base the
-/// exemptions of [`judge`] (a channel already missed structurally, a loss small against
-/// the gain) no longer hold: the misfit is everywhere, and a fit that trades channels
-/// bends the base rather than measuring an effect (probe case 8: model2 on model3's
+/// exemption (c) of [`judge`] (a loss small against the gain) no longer holds: the misfit
+/// is everywhere, and a fit that trades channels bends the base rather than measuring an
+/// effect (probe case 8: model2 on model3's
 /// closed-loop dives took a dead zone that made heading and yaw rate 21–35 % worse).
 /// A rise in the free run alone stays a conflict under [`judge`]'s rules: a right effect
 /// can move the free run's accumulated heading (the paper truth's thrust asymmetry,
-/// heading +91 % in the free run next to a missing moment arm). Returns whether it
-/// refused the finding.
+/// heading +91 % in the free run next to a missing moment arm), and so does exemption
+/// (b), a rise of at most [`MAX_WORSE_UNEXPLAINED`] on a channel the base already misses
+/// structurally and the finding does not claim: with two effects missing, the second's
+/// channels move with any refit for the first (nulls_and_pairs' asymmetry next to a
+/// propeller torque moves pitch). Returns whether it refused the finding.
 pub(super) fn veto_on_inadequate_base(j: &mut Judgement, inadequate: Option<&Inadequacy>) -> bool {
     let Some(inad) = inadequate else {
         return false;
@@ -441,25 +449,8 @@ pub(super) fn veto_on_inadequate_base(j: &mut Judgement, inadequate: Option<&Ina
         return false;
     }
     j.significant = false;
-    j.reason = format!(
-        "it makes {} clearly worse on the held-out data, and the base looks structurally inadequate for this data (it misses {} beyond {INADEQUATE_FACTOR} noise floors, and with this finding still {}): on such a base a fit that trades one channel for another bends the base instead of measuring an effect",
-        traded.join(", "),
-        inad.listed(),
-        left.listed()
-    );
-    for (c, (ch, other)) in j.conflicts.iter_mut().zip(&j.conflict_channels) {
-        if *other && !c.contains("this blocks the finding") {
-            let views = c
-                .strip_prefix(&format!("{ch} gets "))
-                .and_then(|r| r.split([';', ',']).next())
-                .unwrap_or("")
-                .to_string();
-            *c = format!(
-                "{ch} gets {views}; this blocks the finding — {BASE_VETO_MARK} (it misses {}), and a finding that makes another channel clearly worse there is refused",
-                inad.listed()
-            );
-        }
-    }
+    j.reason = base_veto_reason(&traded, inad, &left);
+    mark_base_veto(&mut j.conflicts, &traded, inad);
     true
 }
 
@@ -583,6 +574,74 @@ pub(super) fn cosine(a: &[f64], b: &[f64]) -> f64 {
     }
 }
 
+/// Why a finding that traded `traded` on an inadequate base (`inad`, leaving `left` with
+/// the findings granted) is not significant.
+pub(super) fn base_veto_reason(traded: &[String], inad: &Inadequacy, left: &Inadequacy) -> String {
+    format!(
+        "it makes {} clearly worse on the held-out data, and the base looks structurally inadequate for this data (it misses {} beyond {INADEQUATE_FACTOR} noise floors, and with the findings still {}): on such a base a fit that trades one channel for another bends the base instead of measuring an effect",
+        traded.join(", "),
+        inad.listed(),
+        left.listed()
+    )
+}
+
+/// Rewrites the conflicts (each "<channel> gets <views>; …") of the `traded` channels as
+/// blocking for a structurally inadequate base.
+pub(super) fn mark_base_veto(conflicts: &mut [String], traded: &[String], inad: &Inadequacy) {
+    for c in conflicts.iter_mut() {
+        let Some((ch, rest)) = c.split_once(" gets ") else {
+            continue;
+        };
+        if !traded.iter().any(|t| t == ch) || c.contains(BASE_VETO_MARK) {
+            continue;
+        }
+        let views = rest.split([';', ',']).next().unwrap_or("").to_string();
+        *c = format!(
+            "{ch} gets {views}; this blocks the finding — {BASE_VETO_MARK} (it misses {}), and a finding that makes another channel clearly worse there is refused",
+            inad.listed()
+        );
+    }
+}
+
+/// The report's sentence on a structurally inadequate base: `base` the calibrated base's
+/// [`inadequacy`], `after` the final model's, `refused` the findings the veto refused with
+/// the channels they would have made worse. `None` when the base is adequate in this sense,
+/// or when the findings brought the model out of it and the veto refused nothing.
+pub(super) fn inadequacy_note(
+    base: Option<&Inadequacy>,
+    after: Option<&Inadequacy>,
+    refused: &[(String, Vec<String>)],
+) -> Option<String> {
+    let base = base?;
+    if after.is_none() && refused.is_empty() {
+        return None;
+    }
+    let mut s = format!(
+        "the calibrated base looks structurally inadequate for this data: after calibration it still misses {} excited channels beyond {INADEQUATE_FACTOR} noise floors ({}; held-out multiple-shooting RMSE), more than a missing effect usually leaves, and no refit of its parameters closes that",
+        base.channels.len(),
+        base.listed()
+    );
+    match after {
+        Some(a) if a != base => s.push_str(&format!(
+            "; with the accepted findings it still misses {}",
+            a.listed()
+        )),
+        _ => {}
+    }
+    if !refused.is_empty() {
+        let r: Vec<String> = refused
+            .iter()
+            .map(|(f, chans)| format!("{f} (it makes {} clearly worse)", chans.join(", ")))
+            .collect();
+        s.push_str(&format!(
+            "; findings that trade one channel for another are refused on such a base: {}",
+            r.join(", ")
+        ));
+    }
+    s.push_str("; a base with the missing degrees of freedom or couplings is needed before effects can be named reliably");
+    Some(s)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -630,43 +689,4 @@ mod tests {
                 .vetoing
         );
     }
-}
-
-/// The report's sentence on a structurally inadequate base: `base` the calibrated base's
-/// [`inadequacy`], `after` the final model's, `refused` the findings the veto refused with
-/// the channels they would have made worse. `None` when the base is adequate in this sense,
-/// or when the findings brought the model out of it and the veto refused nothing.
-pub(super) fn inadequacy_note(
-    base: Option<&Inadequacy>,
-    after: Option<&Inadequacy>,
-    refused: &[(String, Vec<String>)],
-) -> Option<String> {
-    let base = base?;
-    if after.is_none() && refused.is_empty() {
-        return None;
-    }
-    let mut s = format!(
-        "the calibrated base looks structurally inadequate for this data: after calibration it still misses {} excited channels beyond {INADEQUATE_FACTOR} noise floors ({}; held-out multiple-shooting RMSE), more than a missing effect usually leaves, and no refit of its parameters closes that",
-        base.channels.len(),
-        base.listed()
-    );
-    match after {
-        Some(a) if a != base => s.push_str(&format!(
-            "; with the accepted findings it still misses {}",
-            a.listed()
-        )),
-        _ => {}
-    }
-    if !refused.is_empty() {
-        let r: Vec<String> = refused
-            .iter()
-            .map(|(f, chans)| format!("{f} (it makes {} clearly worse)", chans.join(", ")))
-            .collect();
-        s.push_str(&format!(
-            "; findings that trade one channel for another are refused on such a base: {}",
-            r.join(", ")
-        ));
-    }
-    s.push_str("; a base with the missing degrees of freedom or couplings is needed before effects can be named reliably");
-    Some(s)
 }

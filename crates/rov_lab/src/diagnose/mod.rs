@@ -28,6 +28,21 @@
 //!    yaw rate: [`kinematic_ratio`]).
 //! 5. **Greedy**: accept the best, reweight the channels, screen again on top of it,
 //!    until nothing passes.
+//! 6. **Structurally inadequate base**: when the calibrated base misses at least
+//!    [`INADEQUATE_CHANNELS`] excited channels beyond [`INADEQUATE_FACTOR`] noise floors
+//!    and, with every accepted effect, still does (those channels carrying at least
+//!    [`INADEQUATE_SHARE`] of its misfit), the first accepted effect that made an excited
+//!    channel worse in the multiple-shooting view (beyond rule (b) of [`judge`]) is
+//!    withdrawn with everything fitted on top of it, and the report says the base looks
+//!    structurally inadequate and why; a term is refused on the same ground
+//!    (`judging::veto_on_inadequate_base`).
+//! 7. **Replacement**: when the last accepted effect leaves one of its home channels
+//!    inconsistent, its DOF's library terms are confirmed on the model without it; a term
+//!    that scores higher on the held-out runs and brings those channels within the
+//!    verdict's distance limit replaces it, and both cards name the alternative
+//!    (`replacement`).
+//! 8. **Terms** outside the catalog while the verdict still finds a channel
+//!    inconsistent ([`discovery`]).
 //!
 //! Two candidates whose confirmed fits change the held-out predictions the same way
 //! (cosine > [`AMBIGUITY_COSINE`]) and score alike are reported as ambiguous, with the
@@ -54,6 +69,7 @@ mod discovery;
 mod explanations;
 mod greedy;
 mod judging;
+mod replacement;
 mod report;
 mod screening;
 mod signatures;
@@ -205,6 +221,7 @@ pub fn diagnose(
     let mut error_fall = vec![("calibrated base".to_string(), rmse_map(&base_eval))];
     let mut latest: BTreeMap<EffectId, Finding> = BTreeMap::new();
     let mut latest_terms: Vec<Finding> = Vec::new();
+    let mut history: Vec<replacement::LastAccepted> = Vec::new();
     for round in 1..=opts.max_effects.max(1) {
         if remaining.is_empty() {
             break;
@@ -325,6 +342,17 @@ pub fn diagnose(
         if let Some(f) = latest.remove(&best_effect) {
             findings.push(f);
         }
+        history.push(replacement::LastAccepted {
+            effect: best_effect,
+            score: bj.score,
+            before: g.snapshot(),
+            traded: bj
+                .conflict_channels
+                .iter()
+                .filter(|(_, t)| *t)
+                .map(|(c, _)| c.clone())
+                .collect(),
+        });
         g.accept(best)?;
         error_fall.push((
             format!("+ {}", best_effect.key()),
@@ -341,6 +369,47 @@ pub fn diagnose(
             &zero,
         )) {
             break;
+        }
+    }
+    // A trade between channels is tolerated only while it leads somewhere: when the base
+    // was structurally inadequate and, with every accepted effect, still is
+    // (`judging::Inadequacy::left_by`), the first effect that bought its gain with a
+    // channel in the verdict's view is withdrawn with everything fitted on top of it.
+    let base_inadequacy = inadequacy(&base_eval, closed_loop);
+    if let (Some(inad), Some(left)) = (
+        base_inadequacy.as_ref(),
+        Inadequacy::left_by(&base_eval, &g.current_eval, closed_loop),
+    ) && let Some(i) = history.iter().position(|h| !h.traded.is_empty())
+    {
+        let dropped: Vec<replacement::LastAccepted> = history.drain(i..).collect();
+        if let Some(first) = dropped.first() {
+            g.restore(first.before.clone());
+        }
+        accepted.truncate(i);
+        error_fall.truncate(i + 1);
+        let first_key = dropped.first().map(|h| h.effect.key()).unwrap_or_default();
+        for (k, h) in dropped.iter().enumerate() {
+            let key = h.effect.key();
+            let Some(pos) = findings.iter().position(|f| f.effect == key) else {
+                continue;
+            };
+            let mut f = findings.remove(pos);
+            f.significant = false;
+            f.status = Status::NotSignificant;
+            f.explanation = if k == 0 {
+                mark_base_veto(&mut f.conflicts, &h.traded, inad);
+                format!(
+                    "not significant: {} ({})",
+                    base_veto_reason(&h.traded, inad, &left),
+                    f.explanation
+                )
+            } else {
+                format!(
+                    "not significant: withdrawn with {first_key}, on top of which it was fitted ({})",
+                    f.explanation
+                )
+            };
+            latest_terms.push(f);
         }
     }
     // The verdict on the catalog's result (H₀ fitted first: `crate::verdict`); the term
@@ -379,7 +448,57 @@ pub fn diagnose(
     let mut accepted_terms: Vec<crate::terms::Term> = Vec::new();
     let mut search_notes: Vec<String> = Vec::new();
     let names = g.current.command_names();
-    for round in 1..=opts.max_terms {
+    // The last accepted catalog effect against the library's terms of its own DOFs, as a
+    // replacement, when it leaves a home channel inconsistent (`replacement`).
+    if let Some(last) = history.last().filter(|_| opts.max_terms > 0) {
+        let outcome = replacement::try_replace(
+            &mut g,
+            last,
+            &final_tested.tests,
+            &remaining,
+            train,
+            val,
+            opts,
+            accepted.len(),
+        )?;
+        let key = last.effect.key();
+        match outcome {
+            None => {}
+            Some(replacement::Outcome::Kept { card, why }) => {
+                if let Some(f) = findings.iter_mut().find(|f| f.effect == key) {
+                    f.explanation = format!("{} — {why}", f.explanation);
+                }
+                latest_terms.extend(card);
+            }
+            Some(replacement::Outcome::Replaced { term, card, why }) => {
+                accepted.retain(|e| *e != last.effect);
+                if let Some(i) = findings.iter().position(|f| f.effect == key) {
+                    let mut f = findings.remove(i);
+                    f.significant = false;
+                    f.status = Status::NotSignificant;
+                    f.explanation =
+                        format!("not significant: replaced — {why} ({})", f.explanation);
+                    latest_terms.push(f);
+                }
+                error_fall.pop();
+                error_fall.push((format!("+ {}", term.id(&names)), rmse_map(&g.current_eval)));
+                accepted_terms.push(term);
+                findings.push(card);
+                final_tested = tested(
+                    &g.current,
+                    &g.current_free,
+                    train,
+                    val,
+                    &g.current_eval,
+                    g.scales.of(View::Shooting(SHOOTING_WINDOW_S)),
+                    None,
+                    base_tested.null.as_deref(),
+                    opts.threads,
+                )?;
+            }
+        }
+    }
+    for round in (accepted_terms.len() + 1)..=opts.max_terms {
         if verdict::all_consistent(&final_tested.tests) {
             break;
         }
@@ -395,6 +514,7 @@ pub fn diagnose(
             &g.scales,
             g.shooting_columns(),
             opts.threads,
+            None,
         )?;
         for (dof, formula, e) in &notes.catalog_like {
             let s = format!(
@@ -656,7 +776,7 @@ pub fn diagnose(
         })
         .collect();
     let base_note = inadequacy_note(
-        inadequacy(&base_eval, closed_loop).as_ref(),
+        base_inadequacy.as_ref(),
         inadequacy(&g.current_eval, closed_loop).as_ref(),
         &refused,
     );
