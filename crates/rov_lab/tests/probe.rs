@@ -11,7 +11,9 @@
 //! (top findings, channel consistency, unexplained channels).
 //!
 //! Cases 9, 10, 14 and 15 put the model3 truth under a planar base or repeat a case's
-//! effect alone, to separate causes.
+//! effect alone, to separate causes. Cases 17 and 18 are hidden_effects' tether_small and
+//! nulls_and_pairs' two effects (the structural-base rule's boundaries); 19–21 add two
+//! effects under model1 and in a messy closed loop, and an outside term in closed loop.
 //!
 //! Run: `cargo test -p rov_lab --release --test probe -- --ignored --nocapture`
 //! (`PROBE=1,4` runs only those cases; `PROBE_EXPLAIN=1` adds every finding's
@@ -225,6 +227,41 @@ fn cases() -> Vec<Case> {
                 ("thrust-asymmetry", "reverse_ratio_vertical", 0.55),
                 ("propeller-torque", "torque_vertical_m", 1.2),
             ],
+        },
+        // What the hidden evaluation names and the cases above lack: two simultaneous
+        // effects under model1 and in closed loop, an outside-catalog term in closed loop.
+        Case {
+            id: 19,
+            base: BaseKind::Model1,
+            seed: 81,
+            hidden: vec![Hidden::AsymVertical(0.6), Hidden::TorqueV(0.002)],
+            data: Data::PlanarOpenLoop,
+            expect: vec!["thrust-asymmetry", "propeller-torque"],
+            params: vec![
+                ("thrust-asymmetry", "reverse_ratio_vertical", 0.6),
+                ("propeller-torque", "torque_vertical_m", 2.0),
+            ],
+        },
+        Case {
+            id: 20,
+            base: BaseKind::Model3,
+            seed: 82,
+            hidden: vec![Hidden::AsymVertical(0.6), Hidden::TorqueV(0.0025)],
+            data: Data::ClosedLoopMessy,
+            expect: vec!["thrust-asymmetry", "propeller-torque"],
+            params: vec![
+                ("thrust-asymmetry", "reverse_ratio_vertical", 0.6),
+                ("propeller-torque", "torque_vertical_m", 2.5),
+            ],
+        },
+        Case {
+            id: 21,
+            base: BaseKind::Model3,
+            seed: 83,
+            hidden: vec![Hidden::YawHeaveSq(0.5)],
+            data: Data::ClosedLoop,
+            expect: vec!["term:yaw:w_absw"],
+            params: vec![("term:yaw:w_absw", "coefficient", 0.5)],
         },
         // Effect-free planar truths (false findings on the planar bases).
         Case {
