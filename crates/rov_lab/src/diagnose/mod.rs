@@ -28,19 +28,20 @@
 //!    yaw rate: [`kinematic_ratio`]).
 //! 5. **Greedy**: accept the best, reweight the channels, screen again on top of it,
 //!    until nothing passes.
-//! 6. **Structurally inadequate base**: when the calibrated base misses at least
+//! 6. **Replacement**: when the last accepted effect leaves one of its home channels
+//!    inconsistent, its DOF's library terms are confirmed on the model without it; a term
+//!    that scores higher on the held-out runs and brings those channels within the
+//!    verdict's distance limit replaces it, and both cards name the alternative
+//!    (`replacement`).
+//! 7. **Structurally inadequate base**: when the calibrated base misses at least
 //!    [`INADEQUATE_CHANNELS`] excited channels beyond [`INADEQUATE_FACTOR`] noise floors
 //!    and, with every accepted effect, still does (those channels carrying at least
 //!    [`INADEQUATE_SHARE`] of its misfit), the first accepted effect that made an excited
 //!    channel worse in the multiple-shooting view (beyond rule (b) of [`judge`]) is
 //!    withdrawn with everything fitted on top of it, and the report says the base looks
-//!    structurally inadequate and why; a term is refused on the same ground
+//!    structurally inadequate and why (not tried after a replacement, whose term passed
+//!    the same rule); a term is refused on the same ground
 //!    (`judging::veto_on_inadequate_base`).
-//! 7. **Replacement**: when the last accepted effect leaves one of its home channels
-//!    inconsistent, its DOF's library terms are confirmed on the model without it; a term
-//!    that scores higher on the held-out runs and brings those channels within the
-//!    verdict's distance limit replaces it, and both cards name the alternative
-//!    (`replacement`).
 //! 8. **Terms** outside the catalog while the verdict still finds a channel
 //!    inconsistent ([`discovery`]).
 //!
@@ -371,47 +372,6 @@ pub fn diagnose(
             break;
         }
     }
-    // A trade between channels is tolerated only while it leads somewhere: when the base
-    // was structurally inadequate and, with every accepted effect, still is
-    // (`judging::Inadequacy::left_by`), the first effect that bought its gain with a
-    // channel in the verdict's view is withdrawn with everything fitted on top of it.
-    let base_inadequacy = inadequacy(&base_eval, closed_loop);
-    if let (Some(inad), Some(left)) = (
-        base_inadequacy.as_ref(),
-        Inadequacy::left_by(&base_eval, &g.current_eval, closed_loop),
-    ) && let Some(i) = history.iter().position(|h| !h.traded.is_empty())
-    {
-        let dropped: Vec<replacement::LastAccepted> = history.drain(i..).collect();
-        if let Some(first) = dropped.first() {
-            g.restore(first.before.clone());
-        }
-        accepted.truncate(i);
-        error_fall.truncate(i + 1);
-        let first_key = dropped.first().map(|h| h.effect.key()).unwrap_or_default();
-        for (k, h) in dropped.iter().enumerate() {
-            let key = h.effect.key();
-            let Some(pos) = findings.iter().position(|f| f.effect == key) else {
-                continue;
-            };
-            let mut f = findings.remove(pos);
-            f.significant = false;
-            f.status = Status::NotSignificant;
-            f.explanation = if k == 0 {
-                mark_base_veto(&mut f.conflicts, &h.traded, inad);
-                format!(
-                    "not significant: {} ({})",
-                    base_veto_reason(&h.traded, inad, &left),
-                    f.explanation
-                )
-            } else {
-                format!(
-                    "not significant: withdrawn with {first_key}, on top of which it was fitted ({})",
-                    f.explanation
-                )
-            };
-            latest_terms.push(f);
-        }
-    }
     // The verdict on the catalog's result (H₀ fitted first: `crate::verdict`); the term
     // search when it is not enough.
     let known = cal.lm.jacobian.as_ref().map(|j| verdict::KnownJacobian {
@@ -450,6 +410,7 @@ pub fn diagnose(
     let names = g.current.command_names();
     // The last accepted catalog effect against the library's terms of its own DOFs, as a
     // replacement, when it leaves a home channel inconsistent (`replacement`).
+    let mut replaced = false;
     if let Some(last) = history.last().filter(|_| opts.max_terms > 0) {
         let outcome = replacement::try_replace(
             &mut g,
@@ -471,6 +432,7 @@ pub fn diagnose(
                 latest_terms.extend(card);
             }
             Some(replacement::Outcome::Replaced { term, card, why }) => {
+                replaced = true;
                 accepted.retain(|e| *e != last.effect);
                 if let Some(i) = findings.iter().position(|f| f.effect == key) {
                     let mut f = findings.remove(i);
@@ -497,6 +459,67 @@ pub fn diagnose(
                 )?;
             }
         }
+    }
+    // A trade between channels is tolerated only while it leads somewhere: when the base
+    // was structurally inadequate and, with every accepted effect, still is
+    // (`judging::Inadequacy::left_by`), the first effect that bought its gain with a
+    // channel in the verdict's view is withdrawn with everything fitted on top of it.
+    // (After the replacement test: a term that replaces the trading effect may leave
+    // the model adequate.)
+    let base_inadequacy = inadequacy(&base_eval, closed_loop);
+    // (A replacement's term passed the immediate veto; the withdrawal, which would drop
+    // it with the effects it was fitted on top of, is not tried after one.)
+    if let (false, Some(inad), Some(left)) = (
+        replaced,
+        base_inadequacy.as_ref(),
+        Inadequacy::left_by(&base_eval, &g.current_eval, closed_loop),
+    ) && let Some(i) = history.iter().position(|h| !h.traded.is_empty())
+    {
+        let dropped: Vec<replacement::LastAccepted> = history.drain(i..).collect();
+        if let Some(first) = dropped.first() {
+            g.restore(first.before.clone());
+        }
+        accepted.truncate(i);
+        error_fall.truncate(i + 1);
+        let first_key = dropped.first().map(|h| h.effect.key()).unwrap_or_default();
+        for (k, h) in dropped.iter().enumerate() {
+            let key = h.effect.key();
+            let Some(pos) = findings.iter().position(|f| f.effect == key) else {
+                continue;
+            };
+            let mut f = findings.remove(pos);
+            f.significant = false;
+            f.status = Status::NotSignificant;
+            f.explanation = if k == 0 {
+                mark_base_veto(&mut f.conflicts, &h.traded, inad);
+                format!(
+                    "not significant: {} ({})",
+                    base_veto_reason(&h.traded, inad, &left),
+                    f.explanation
+                )
+            } else {
+                format!(
+                    "not significant: withdrawn with {first_key}, on top of which it was fitted ({})",
+                    f.explanation
+                )
+            };
+            latest_terms.push(f);
+        }
+        final_tested = if accepted.is_empty() && accepted_terms.is_empty() {
+            base_tested.clone()
+        } else {
+            tested(
+                &g.current,
+                &g.current_free,
+                train,
+                val,
+                &g.current_eval,
+                g.scales.of(View::Shooting(SHOOTING_WINDOW_S)),
+                None,
+                base_tested.null.as_deref(),
+                opts.threads,
+            )?
+        };
     }
     for round in (accepted_terms.len() + 1)..=opts.max_terms {
         if verdict::all_consistent(&final_tested.tests) {
