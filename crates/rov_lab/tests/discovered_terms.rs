@@ -234,3 +234,65 @@ fn a_catalog_effect_is_still_named_as_the_catalog_effect() {
         "{text}"
     );
 }
+
+/// Probe case 7: on model2, a yaw moment 0.5·w|w| (outside the catalog). In steady heave
+/// w|w| is nearly proportional to the vertical thrust, so the catalog's propeller torque
+/// took 92 % of the heading misfit at 10.8 mm/N (five times the other tests' values) and
+/// was accepted with heading still 9.5× its noise floor; the term search, running on top
+/// of it, found only scraps. An accepted effect that leaves its own home channel
+/// inconsistent is now tested against its DOF's library terms as a replacement, and the
+/// held-out data's preference is kept, with the alternative named.
+#[test]
+fn an_outside_term_collinear_with_a_catalog_effect_replaces_it() {
+    let (tr, va) = common::planar_case("model2", 67, &[Hidden::YawHeaveSq(0.5)], TRAIN_S, VAL_S);
+    let d = diagnose(
+        &LabModel::default_base(BaseKind::Model2).unwrap(),
+        "model2",
+        &[Run::from_series(&tr, "train").unwrap()],
+        &[Run::from_series(&va, "val").unwrap()],
+        &DiagnoseOptions {
+            threads: 2,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let names = d.final_model.command_names();
+    let ids: Vec<String> = d.accepted_terms.iter().map(|t| t.id(&names)).collect();
+    assert!(
+        ids.iter().any(|i| i == "term:yaw:w_absw"),
+        "accepted terms {ids:?}, effects {:?}: {}",
+        d.accepted,
+        describe(&d)
+    );
+    assert!(
+        !d.accepted.iter().any(|e| e.key() == "propeller-torque"),
+        "{}",
+        describe(&d)
+    );
+    let Some(f) = d.findings.iter().find(|f| f.effect == "term:yaw:w_absw") else {
+        panic!("{}", describe(&d));
+    };
+    let c = f.params["coefficient"].value;
+    assert!((c - 0.5).abs() <= 0.35 * 0.5, "coefficient {c}");
+    // Both readings are said: the term's card names the effect it replaces, the effect's
+    // card the term the data prefers.
+    assert!(
+        f.explanation.contains("propeller-torque"),
+        "{}",
+        f.explanation
+    );
+    let Some(t) = d.findings.iter().find(|f| f.effect == "propeller-torque") else {
+        panic!("{}", describe(&d));
+    };
+    assert!(
+        !t.significant && t.explanation.contains("prefers the term"),
+        "{}",
+        t.explanation
+    );
+    assert_eq!(
+        d.verdict,
+        rov_lab::verdict::Verdict::Explained,
+        "{}",
+        d.summary
+    );
+}

@@ -1,9 +1,10 @@
 //! Effect-free runs report nothing significant; two hidden effects are both found, the
-//! larger first; the planar models find `pitch-depth-coupling`.
+//! larger first; the planar models find `pitch-depth-coupling`; a structurally wrong base
+//! on effect-free closed-loop dives names nothing and says its structure is the problem.
 
 mod common;
 
-use common::{Hidden, case_len, planar_trim_case};
+use common::{Hidden, case_len, closed_loop_run, mess_up, planar_trim_case};
 use rov_lab::diagnose::{DiagnoseOptions, diagnose};
 use rov_lab::{BaseKind, LabModel, Run};
 
@@ -117,4 +118,72 @@ fn planar_model_finds_pitch_depth_coupling() {
         let p = f.params["trim_deg"].value;
         assert!((p - trim).abs() <= 0.35 * trim, "trim {trim} fitted {p}");
     }
+}
+
+/// Probe case 8: the planar model2 on model3's effect-free closed-loop dives (messy logs,
+/// the autopilot in the loop). After calibration the base misses six channels by 2.5–14
+/// noise floors, so any catalog effect can buy some of them with another: a dead zone
+/// cut depth and surge by half while making heading and yaw rate 21–35 % worse, and was
+/// accepted because the gain outweighed the loss. On a base that stays structurally
+/// inadequate with the finding granted, such a trade is refused, and the report says the
+/// base is the problem.
+#[test]
+fn a_structurally_wrong_base_trades_no_channel_for_a_false_finding() {
+    let mut tr = closed_loop_run(68, 68, &[], 420.0);
+    let mut va = closed_loop_run(68, 69, &[], 240.0);
+    mess_up(&mut tr, 75, 3, 2, Some((150.0, 2.5)));
+    mess_up(&mut va, 76, 2, 3, None);
+    let tr = rov_lab::ingest::runs_from_text(&tr.to_csv(), "train.csv").unwrap();
+    let va = rov_lab::ingest::runs_from_text(&va.to_csv(), "val.csv").unwrap();
+    let m = LabModel::default_base(BaseKind::Model2).unwrap();
+    let d = diagnose(
+        &m,
+        "model2",
+        &tr,
+        &va,
+        &DiagnoseOptions {
+            threads: 2,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let accepted: Vec<String> = d
+        .findings
+        .iter()
+        .filter(|f| f.significant)
+        .map(|f| format!("{}: {}", f.effect, f.explanation))
+        .collect();
+    assert!(
+        accepted.is_empty() && d.accepted.is_empty() && d.accepted_terms.is_empty(),
+        "no effect is hidden, yet accepted {accepted:?}"
+    );
+    assert_eq!(
+        d.verdict,
+        rov_lab::verdict::Verdict::Unexplained,
+        "{}",
+        d.summary
+    );
+    assert!(
+        d.summary.contains("structurally inadequate"),
+        "the summary must say the base is the problem: {}",
+        d.summary
+    );
+    // The refused trade is reported as such on the finding's card.
+    let refused: Vec<&rov_lab::diagnose::Finding> = d
+        .findings
+        .iter()
+        .filter(|f| {
+            f.conflicts
+                .iter()
+                .any(|c| c.contains("the base is structurally inadequate"))
+        })
+        .collect();
+    assert!(!refused.is_empty(), "{}", d.summary);
+    assert!(
+        refused
+            .iter()
+            .all(|f| !f.significant && f.explanation.contains("structurally inadequate")),
+        "{:?}",
+        refused.iter().map(|f| &f.explanation).collect::<Vec<_>>()
+    );
 }

@@ -11,7 +11,9 @@
 //! (top findings, channel consistency, unexplained channels).
 //!
 //! Cases 9, 10, 14 and 15 put the model3 truth under a planar base or repeat a case's
-//! effect alone, to separate causes.
+//! effect alone, to separate causes. Cases 17 and 18 are hidden_effects' tether_small and
+//! nulls_and_pairs' two effects (the structural-base rule's boundaries); 19–21 add two
+//! effects under model1 and in a messy closed loop, and an outside term in closed loop.
 //!
 //! Run: `cargo test -p rov_lab --release --test probe -- --ignored --nocapture`
 //! (`PROBE=1,4` runs only those cases; `PROBE_EXPLAIN=1` adds every finding's
@@ -129,8 +131,8 @@ fn cases() -> Vec<Case> {
             seed: 67,
             hidden: vec![Hidden::YawHeaveSq(0.5)],
             data: Data::PlanarOpenLoop,
-            expect: vec!["term:5:"],
-            params: vec![("term:5:", "coefficient", 0.5)],
+            expect: vec!["term:yaw:w_absw"],
+            params: vec![("term:yaw:w_absw", "coefficient", 0.5)],
         },
         Case {
             id: 8,
@@ -199,6 +201,67 @@ fn cases() -> Vec<Case> {
             data: Data::ClosedLoopMessy,
             expect: vec![],
             params: vec![],
+        },
+        // hidden_effects.rs's tether_small: a right finding that trades depth and roll
+        // for heading on a base that misses several channels (the structural-base veto's
+        // boundary).
+        Case {
+            id: 17,
+            base: BaseKind::Model3,
+            seed: 11,
+            hidden: vec![Hidden::Tether(0.3, 60.0)],
+            data: Data::OpenLoop,
+            expect: vec!["tether"],
+            params: vec![("tether", "tether_east_n", 0.3 * 0.866)],
+        },
+        // nulls_and_pairs.rs's two simultaneous effects (the structural-base veto's
+        // other boundary: the second effect's channels stay missed).
+        Case {
+            id: 18,
+            base: BaseKind::Model3,
+            seed: 31,
+            hidden: vec![Hidden::AsymVertical(0.55), Hidden::TorqueV(0.0012)],
+            data: Data::OpenLoop,
+            expect: vec!["thrust-asymmetry", "propeller-torque"],
+            params: vec![
+                ("thrust-asymmetry", "reverse_ratio_vertical", 0.55),
+                ("propeller-torque", "torque_vertical_m", 1.2),
+            ],
+        },
+        // What the hidden evaluation names and the cases above lack: two simultaneous
+        // effects under model1 and in closed loop, an outside-catalog term in closed loop.
+        Case {
+            id: 19,
+            base: BaseKind::Model1,
+            seed: 81,
+            hidden: vec![Hidden::AsymVertical(0.6), Hidden::TorqueV(0.002)],
+            data: Data::PlanarOpenLoop,
+            expect: vec!["thrust-asymmetry", "propeller-torque"],
+            params: vec![
+                ("thrust-asymmetry", "reverse_ratio_vertical", 0.6),
+                ("propeller-torque", "torque_vertical_m", 2.0),
+            ],
+        },
+        Case {
+            id: 20,
+            base: BaseKind::Model3,
+            seed: 82,
+            hidden: vec![Hidden::AsymVertical(0.6), Hidden::TorqueV(0.0025)],
+            data: Data::ClosedLoopMessy,
+            expect: vec!["thrust-asymmetry", "propeller-torque"],
+            params: vec![
+                ("thrust-asymmetry", "reverse_ratio_vertical", 0.6),
+                ("propeller-torque", "torque_vertical_m", 2.5),
+            ],
+        },
+        Case {
+            id: 21,
+            base: BaseKind::Model3,
+            seed: 83,
+            hidden: vec![Hidden::YawHeaveSq(0.5)],
+            data: Data::ClosedLoop,
+            expect: vec!["term:yaw:w_absw"],
+            params: vec![("term:yaw:w_absw", "coefficient", 0.5)],
         },
         // Effect-free planar truths (false findings on the planar bases).
         Case {

@@ -228,6 +228,31 @@ impl<'a> Greedy<'a> {
         judged
     }
 
+    /// Whether the current model is structurally inadequate for the data
+    /// ([`inadequacy`] of its held-out evaluation): then a finding that makes another
+    /// excited channel clearly worse is refused ([`veto_on_inadequate_base`]).
+    pub(super) fn inadequacy(&self) -> Option<Inadequacy> {
+        inadequacy(&self.current_eval, self.closed_loop)
+    }
+
+    /// The state an [`Greedy::accept`] changes, to go back to ([`Greedy::restore`]).
+    pub(super) fn snapshot(&self) -> Snapshot {
+        Snapshot {
+            current: self.current.clone(),
+            current_eval: self.current_eval.clone(),
+            current_free: self.current_free.clone(),
+            scales: self.scales,
+        }
+    }
+
+    /// Goes back to a [`Greedy::snapshot`] (undoes the acceptances since).
+    pub(super) fn restore(&mut self, s: Snapshot) {
+        self.current = s.current;
+        self.current_eval = s.current_eval;
+        self.current_free = s.current_free;
+        self.rescale(s.scales);
+    }
+
     /// Makes a confirmed candidate part of the model and reweights for the next round.
     pub(super) fn accept(&mut self, c: &Confirmed) -> Result<(), LabError> {
         for p in &c.params {
@@ -238,6 +263,12 @@ impl<'a> Greedy<'a> {
         self.current = c.fit.model.clone();
         self.current_eval = c.eval.clone();
         let new_scales = ViewScales::of_model(&self.current, self.train)?;
+        self.rescale(new_scales);
+        Ok(())
+    }
+
+    /// Moves the screening caches and the weights to new channel scales.
+    fn rescale(&mut self, new_scales: ViewScales) {
         for (cache, view) in [
             (&mut self.cache_short, short_view(self.train)),
             (&mut self.cache_shoot, View::Shooting(SHOOTING_WINDOW_S)),
@@ -253,6 +284,14 @@ impl<'a> Greedy<'a> {
             );
         }
         self.scales = new_scales;
-        Ok(())
     }
+}
+
+/// The part of the greedy state an acceptance changes.
+#[derive(Clone)]
+pub(super) struct Snapshot {
+    current: LabModel,
+    current_eval: Evaluation,
+    current_free: Vec<Param>,
+    scales: ViewScales,
 }

@@ -28,6 +28,22 @@
 //!    yaw rate: [`kinematic_ratio`]).
 //! 5. **Greedy**: accept the best, reweight the channels, screen again on top of it,
 //!    until nothing passes.
+//! 6. **Replacement**: when the last accepted effect leaves one of its home channels
+//!    inconsistent, its DOF's library terms are confirmed on the model without it; a term
+//!    that scores higher on the held-out runs and brings those channels within the
+//!    verdict's distance limit replaces it, and both cards name the alternative
+//!    (`replacement`).
+//! 7. **Structurally inadequate base**: when the calibrated base misses at least
+//!    [`INADEQUATE_CHANNELS`] excited channels beyond [`INADEQUATE_FACTOR`] noise floors
+//!    and, with every accepted effect, still does (those channels carrying at least
+//!    [`INADEQUATE_SHARE`] of its misfit), the first accepted effect that made an excited
+//!    channel worse in the multiple-shooting view (beyond rule (b) of [`judge`]) is
+//!    withdrawn with everything fitted on top of it, and the report says the base looks
+//!    structurally inadequate and why (not tried after a replacement, whose term passed
+//!    the same rule); a term is refused on the same ground
+//!    (`judging::veto_on_inadequate_base`).
+//! 8. **Terms** outside the catalog while the verdict still finds a channel
+//!    inconsistent ([`discovery`]).
 //!
 //! Two candidates whose confirmed fits change the held-out predictions the same way
 //! (cosine > [`AMBIGUITY_COSINE`]) and score alike are reported as ambiguous, with the
@@ -54,6 +70,7 @@ mod discovery;
 mod explanations;
 mod greedy;
 mod judging;
+mod replacement;
 mod report;
 mod screening;
 mod signatures;
@@ -107,6 +124,18 @@ pub const MIN_DBIC: f64 = 10.0;
 pub const CONTROL_FRACTION: f64 = 0.1;
 /// A thruster lag shorter than this fraction of the sample period is not resolvable.
 pub const LAG_RESOLUTION: f64 = 0.5;
+/// A model is structurally inadequate for the data when it misses at least
+/// [`INADEQUATE_CHANNELS`] excited channels by more than this many noise floors
+/// (multiple-shooting held-out RMSE): a finding that leaves it so ([`INADEQUATE_SHARE`])
+/// and makes another excited channel clearly worse is then refused
+/// (`judging::veto_on_inadequate_base`).
+pub const INADEQUATE_FACTOR: f64 = 2.0;
+/// See [`INADEQUATE_FACTOR`].
+pub const INADEQUATE_CHANNELS: usize = 2;
+/// A finding leaves a base structurally inadequate when the channels still beyond
+/// [`INADEQUATE_FACTOR`] floors with it carry at least this share of the base's misfit
+/// beyond that level (`judging::Inadequacy::left_by`).
+pub const INADEQUATE_SHARE: f64 = 0.25;
 /// Cosine similarity of prediction changes above which two findings are ambiguous.
 pub const AMBIGUITY_COSINE: f64 = 0.9;
 
@@ -193,6 +222,7 @@ pub fn diagnose(
     let mut error_fall = vec![("calibrated base".to_string(), rmse_map(&base_eval))];
     let mut latest: BTreeMap<EffectId, Finding> = BTreeMap::new();
     let mut latest_terms: Vec<Finding> = Vec::new();
+    let mut history: Vec<replacement::LastAccepted> = Vec::new();
     for round in 1..=opts.max_effects.max(1) {
         if remaining.is_empty() {
             break;
@@ -313,6 +343,17 @@ pub fn diagnose(
         if let Some(f) = latest.remove(&best_effect) {
             findings.push(f);
         }
+        history.push(replacement::LastAccepted {
+            effect: best_effect,
+            score: bj.score,
+            before: g.snapshot(),
+            traded: bj
+                .conflict_channels
+                .iter()
+                .filter(|(_, t)| *t)
+                .map(|(c, _)| c.clone())
+                .collect(),
+        });
         g.accept(best)?;
         error_fall.push((
             format!("+ {}", best_effect.key()),
@@ -367,7 +408,120 @@ pub fn diagnose(
     let mut accepted_terms: Vec<crate::terms::Term> = Vec::new();
     let mut search_notes: Vec<String> = Vec::new();
     let names = g.current.command_names();
-    for round in 1..=opts.max_terms {
+    // The last accepted catalog effect against the library's terms of its own DOFs, as a
+    // replacement, when it leaves a home channel inconsistent (`replacement`).
+    let mut replaced = false;
+    if let Some(last) = history.last().filter(|_| opts.max_terms > 0) {
+        let outcome = replacement::try_replace(
+            &mut g,
+            last,
+            &final_tested.tests,
+            &remaining,
+            train,
+            val,
+            opts,
+            accepted.len(),
+        )?;
+        let key = last.effect.key();
+        match outcome {
+            None => {}
+            Some(replacement::Outcome::Kept { card, why }) => {
+                if let Some(f) = findings.iter_mut().find(|f| f.effect == key) {
+                    f.explanation = format!("{} — {why}", f.explanation);
+                }
+                latest_terms.extend(card);
+            }
+            Some(replacement::Outcome::Replaced { term, card, why }) => {
+                replaced = true;
+                accepted.retain(|e| *e != last.effect);
+                if let Some(i) = findings.iter().position(|f| f.effect == key) {
+                    let mut f = findings.remove(i);
+                    f.significant = false;
+                    f.status = Status::NotSignificant;
+                    f.explanation =
+                        format!("not significant: replaced — {why} ({})", f.explanation);
+                    latest_terms.push(f);
+                }
+                error_fall.pop();
+                error_fall.push((format!("+ {}", term.id(&names)), rmse_map(&g.current_eval)));
+                accepted_terms.push(term);
+                findings.push(card);
+                final_tested = tested(
+                    &g.current,
+                    &g.current_free,
+                    train,
+                    val,
+                    &g.current_eval,
+                    g.scales.of(View::Shooting(SHOOTING_WINDOW_S)),
+                    None,
+                    base_tested.null.as_deref(),
+                    opts.threads,
+                )?;
+            }
+        }
+    }
+    // A trade between channels is tolerated only while it leads somewhere: when the base
+    // was structurally inadequate and, with every accepted effect, still is
+    // (`judging::Inadequacy::left_by`), the first effect that bought its gain with a
+    // channel in the verdict's view is withdrawn with everything fitted on top of it.
+    // (After the replacement test: a term that replaces the trading effect may leave
+    // the model adequate.)
+    let base_inadequacy = inadequacy(&base_eval, closed_loop);
+    // (A replacement's term passed the immediate veto; the withdrawal, which would drop
+    // it with the effects it was fitted on top of, is not tried after one.)
+    if let (false, Some(inad), Some(left)) = (
+        replaced,
+        base_inadequacy.as_ref(),
+        Inadequacy::left_by(&base_eval, &g.current_eval, closed_loop),
+    ) && let Some(i) = history.iter().position(|h| !h.traded.is_empty())
+    {
+        let dropped: Vec<replacement::LastAccepted> = history.drain(i..).collect();
+        if let Some(first) = dropped.first() {
+            g.restore(first.before.clone());
+        }
+        accepted.truncate(i);
+        error_fall.truncate(i + 1);
+        let first_key = dropped.first().map(|h| h.effect.key()).unwrap_or_default();
+        for (k, h) in dropped.iter().enumerate() {
+            let key = h.effect.key();
+            let Some(pos) = findings.iter().position(|f| f.effect == key) else {
+                continue;
+            };
+            let mut f = findings.remove(pos);
+            f.significant = false;
+            f.status = Status::NotSignificant;
+            f.explanation = if k == 0 {
+                mark_base_veto(&mut f.conflicts, &h.traded, inad);
+                format!(
+                    "not significant: {} ({})",
+                    base_veto_reason(&h.traded, inad, &left),
+                    f.explanation
+                )
+            } else {
+                format!(
+                    "not significant: withdrawn with {first_key}, on top of which it was fitted ({})",
+                    f.explanation
+                )
+            };
+            latest_terms.push(f);
+        }
+        final_tested = if accepted.is_empty() && accepted_terms.is_empty() {
+            base_tested.clone()
+        } else {
+            tested(
+                &g.current,
+                &g.current_free,
+                train,
+                val,
+                &g.current_eval,
+                g.scales.of(View::Shooting(SHOOTING_WINDOW_S)),
+                None,
+                base_tested.null.as_deref(),
+                opts.threads,
+            )?
+        };
+    }
+    for round in (accepted_terms.len() + 1)..=opts.max_terms {
         if verdict::all_consistent(&final_tested.tests) {
             break;
         }
@@ -383,6 +537,7 @@ pub fn diagnose(
             &g.scales,
             g.shooting_columns(),
             opts.threads,
+            None,
         )?;
         for (dof, formula, e) in &notes.catalog_like {
             let s = format!(
@@ -432,6 +587,10 @@ pub fn diagnose(
         .flatten()
         .collect();
         let mut judged = judged;
+        let inadequate = g.inadequacy();
+        for (_, j) in &mut judged {
+            veto_on_inadequate_base(j, inadequate.as_ref());
+        }
         judged.sort_by(|a, b| {
             b.1.significant
                 .cmp(&a.1.significant)
@@ -625,6 +784,29 @@ pub fn diagnose(
     } else {
         format!("{summary} ({})", traded.join("; "))
     };
+    // A structurally inadequate base (`judging::inadequacy`): said, with what it refused.
+    let refused: Vec<(String, Vec<String>)> = findings
+        .iter()
+        .filter(|f| !f.significant)
+        .filter_map(|f| {
+            let chans: Vec<String> = f
+                .conflicts
+                .iter()
+                .filter(|c| c.contains(BASE_VETO_MARK))
+                .filter_map(|c| c.split(" gets ").next().map(str::to_string))
+                .collect();
+            (!chans.is_empty()).then(|| (f.effect.clone(), chans))
+        })
+        .collect();
+    let base_note = inadequacy_note(
+        base_inadequacy.as_ref(),
+        inadequacy(&g.current_eval, closed_loop).as_ref(),
+        &refused,
+    );
+    let summary = match &base_note {
+        Some(n) if !matches!(verdict, Verdict::Explained) => format!("{summary}. Note: {n}"),
+        _ => summary,
+    };
     let mut data_notes = crate::ingest::treatment_sentences(train);
     for s in crate::ingest::treatment_sentences(val) {
         if !data_notes.contains(&s) {
@@ -632,6 +814,7 @@ pub fn diagnose(
         }
     }
     let mut calibration_notes = crate::calibrate::calibration_notes(&cal, train);
+    calibration_notes.extend(base_note);
     if !final_tested.moved.is_empty() {
         let moved: Vec<String> = final_tested
             .moved
@@ -870,6 +1053,8 @@ pub fn add_to_model(
             &g.scales,
             closed_loop,
         )?;
+        let mut j = j;
+        veto_on_inadequate_base(&mut j, g.inadequacy().as_ref());
         let Subject::Term(t) = c.subject else {
             continue;
         };

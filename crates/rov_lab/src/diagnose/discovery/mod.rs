@@ -128,7 +128,8 @@ pub(super) struct SearchNotes {
 }
 
 /// Searches the library for terms that explain the residual generalised force of the
-/// current model on the training runs.
+/// current model on the training runs (on the DOFs `dofs` only, when given).
+#[allow(clippy::too_many_arguments)]
 pub(super) fn search(
     model: &LabModel,
     train: &[Run],
@@ -137,6 +138,7 @@ pub(super) fn search(
     scales: &ViewScales,
     base_cols: &ColumnCache,
     threads: usize,
+    dofs: Option<&[usize]>,
 ) -> Result<(Vec<TermPick>, SearchNotes), LabError> {
     let fixed = crate::verdict::fixed_uncertain(model, base_free);
     let (data, _) = equation_error(model, train, base_free, catalog)?;
@@ -146,7 +148,7 @@ pub(super) fn search(
     let mut shortlist: Vec<(Term, f64)> = Vec::new();
     for d in &data {
         let n = d.y.len();
-        if n < 30 {
+        if n < 30 || dofs.is_some_and(|ds| !ds.contains(&d.dof)) {
             continue;
         }
         let all: Vec<usize> = (0..n).collect();

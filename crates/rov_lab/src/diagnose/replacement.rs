@@ -1,0 +1,359 @@
+//! A catalog effect against the library's terms of its own DOFs, as a replacement.
+//!
+//! The term search normally runs on top of the accepted effects, so it can only add to
+//! them. An outside-catalog force that is nearly proportional to a catalog effect's
+//! signature on the training data (a yaw moment ∝ w|w| against the vertical thruster's
+//! reaction torque: in steady heave w|w| follows the vertical thrust) is then taken by
+//! the catalog effect, with a parameter far from its usual range, and the term search
+//! finds only scraps. So when the last accepted catalog effect leaves one of its own
+//! home channels inconsistent with the held-out data (the verdict's test), the library
+//! terms of those channels' DOFs are searched and confirmed on the model *without* that
+//! effect, exactly as an addition would be, and the held-out score of the best term is
+//! compared with the effect's own (both judged against the same model): the data's
+//! preference decides which is kept, and the report names the other as the alternative.
+//! Nothing of this runs unless that situation occurs.
+
+use crate::LabError;
+use crate::catalog::EffectId;
+use crate::data::Run;
+use crate::params::Param;
+use crate::terms::Term;
+use crate::verdict::ChannelTest;
+
+use super::greedy::{Greedy, Snapshot};
+use super::*;
+
+/// The last catalog effect the greedy loop accepted, with the state before it.
+pub(super) struct LastAccepted {
+    pub(super) effect: EffectId,
+    /// Its held-out score against the model before it ([`judge`]).
+    pub(super) score: f64,
+    pub(super) before: Snapshot,
+    /// Excited channels it made worse in the multiple-shooting view beyond rule (b)'s
+    /// tolerance (`Judgement::conflict_channels`).
+    pub(super) traded: Vec<String>,
+}
+
+/// What the comparison decided.
+pub(super) enum Outcome {
+    /// The term replaces the effect; the greedy state is the model before the effect
+    /// plus the term.
+    Replaced {
+        term: Term,
+        /// The term's evidence card.
+        card: Finding,
+        /// Why, for the effect's card.
+        why: String,
+    },
+    /// The effect stays (the greedy state is unchanged); `card` is the best term's card
+    /// (not significant), `why` for the effect's card.
+    Kept { card: Option<Finding>, why: String },
+}
+
+/// The DOF whose force a channel shows first (the inverse of `term_home`).
+fn dof_of(ch: Channel) -> usize {
+    use Channel::*;
+    match ch {
+        Surge | North | East => 0,
+        Sway => 1,
+        Depth | Heave => 2,
+        Roll | RollRate => 3,
+        Pitch | PitchRate => 4,
+        Heading | YawRate => 5,
+    }
+}
+
+/// Tests the library terms of the DOFs of `last`'s inconsistent home channels as a
+/// replacement for it (module docs). `None` when its home channels are consistent or
+/// no term could be confirmed; the greedy state is then as it was.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn try_replace(
+    g: &mut Greedy<'_>,
+    last: &LastAccepted,
+    tests: &[ChannelTest],
+    remaining: &[Candidate],
+    train: &[Run],
+    val: &[Run],
+    opts: &DiagnoseOptions,
+    round: usize,
+) -> Result<Option<Outcome>, LabError> {
+    let home = last.effect.home_channels();
+    let mut dofs: Vec<usize> = Vec::new();
+    for t in tests.iter().filter(|t| !t.consistent) {
+        if let Some(ch) = home.iter().find(|c| crate::data::ch_name(**c) == t.channel) {
+            let d = dof_of(*ch);
+            if !dofs.contains(&d) {
+                dofs.push(d);
+            }
+        }
+    }
+    if dofs.is_empty() {
+        return Ok(None);
+    }
+    let after = g.snapshot();
+    g.restore(last.before.clone());
+    // The catalog-signature filter keeps every other candidate (a term that is another
+    // catalog effect's signature is that effect); the effect under test is left out:
+    // its own signature is what the terms are compared with here.
+    let catalog: Vec<(EffectId, Vec<Param>)> = remaining
+        .iter()
+        .filter(|c| c.effect != last.effect)
+        .map(|c| (c.effect, c.params.clone()))
+        .collect();
+    let (picks, _) = discovery::search(
+        &g.current,
+        train,
+        &g.current_free,
+        &catalog,
+        &g.scales,
+        g.shooting_columns(),
+        opts.threads,
+        Some(&dofs),
+    )?;
+    let top: Vec<&discovery::TermPick> = picks.iter().take(discovery::MAX_CONFIRM).collect();
+    if top.is_empty() {
+        g.restore(after);
+        return Ok(None);
+    }
+    let inadequate = g.inadequacy();
+    // Each term's coefficient is first fitted alone on the short horizon, where the
+    // misfit the effect took is still small and smooth (a heading missed by 80° over a
+    // 10 s window is neither): the start of its confirmation.
+    let started: Vec<(discovery::TermPick, LabModel)> = par_map(top.len(), opts.threads, |i| {
+        short_start(g, train, top[i], opts.confirm_iterations)
+    });
+    let top: Vec<&discovery::TermPick> = started.iter().map(|(p, _)| p).collect();
+    let mut judged: Vec<(Confirmed, Judgement, usize)> = par_map(top.len(), opts.threads, |i| {
+        discovery::confirm_term(
+            &started[i].1,
+            &g.current_eval,
+            train,
+            val,
+            &g.current_free,
+            top[i],
+            opts.confirm_iterations,
+            &g.scales,
+            g.closed_loop,
+        )
+        .map(|(c, j)| (c, j, i))
+    })
+    .into_iter()
+    .flatten()
+    .collect();
+    for (_, j, _) in &mut judged {
+        veto_on_inadequate_base(j, inadequate.as_ref());
+    }
+    // A term is a candidate replacement when it is significant, scores higher on the
+    // held-out runs than the effect, and brings the home channels the effect left
+    // inconsistent within the verdict's distance limit ([`crate::verdict::MAX_RATIO`]
+    // noise floors): a term that leaves the same misfit is the effect's own form over
+    // again (the vertical command on yaw against a propeller torque).
+    let fixes_home = |c: &Confirmed| {
+        tests
+            .iter()
+            .filter(|t| !t.consistent && home.iter().any(|h| crate::data::ch_name(*h) == t.channel))
+            .all(|t| {
+                c.eval.channels.iter().any(|(k, ce)| {
+                    k.name() == t.channel
+                        && ce.shooting.rmse <= crate::verdict::MAX_RATIO * ce.noise
+                })
+            })
+    };
+    let mut judged: Vec<(Confirmed, Judgement, usize, bool)> = judged
+        .into_iter()
+        .map(|(c, j, i)| {
+            let ok = j.significant && j.score > last.score && fixes_home(&c);
+            (c, j, i, ok)
+        })
+        .collect();
+    judged.sort_by(|a, b| {
+        b.3.cmp(&a.3)
+            .then(b.1.significant.cmp(&a.1.significant))
+            .then(b.1.score.total_cmp(&a.1.score))
+    });
+    let Some((c, j, i, preferred)) = judged.into_iter().next() else {
+        g.restore(after);
+        return Ok(None);
+    };
+    let Subject::Term(t) = c.subject else {
+        g.restore(after);
+        return Ok(None);
+    };
+    let names = g.current.command_names();
+    let id = t.id(&names);
+    let formula = format!(
+        "{} ∝ {}",
+        crate::terms::DOF_FORCE
+            .get(t.dof as usize)
+            .copied()
+            .unwrap_or("force"),
+        t.kind.formula(&names)
+    );
+    let both = format!(
+        "{} or a {formula}: tested as alternatives on the same model, the held-out data prefers",
+        last.effect.key()
+    );
+
+    let mut card = term_card(&c, &j, &g.current, round, top.get(i).copied());
+    if preferred {
+        let why = format!(
+            "{both} the term (held-out score {:.1} against {:.1}; it brings {} within {} noise floors, which {} left inconsistent)",
+            j.score,
+            last.score,
+            home_names(home, tests),
+            crate::verdict::MAX_RATIO,
+            last.effect.key()
+        );
+        card.explanation = format!(
+            "{} — a replacement for {}: {why}",
+            card.explanation,
+            last.effect.key()
+        );
+        g.accept(&c)?;
+        Ok(Some(Outcome::Replaced { term: t, card, why }))
+    } else {
+        g.restore(after);
+        let why = if j.significant && j.score > last.score {
+            format!(
+                "{both} neither clearly: {id} scores {:.1} against {:.1} but leaves {} as far from the noise as the catalog effect does, so the catalog effect is kept",
+                j.score,
+                last.score,
+                home_names(home, tests)
+            )
+        } else {
+            format!(
+                "{both} the catalog effect (held-out score {:.1} against {:.1} for {id}{})",
+                last.score,
+                j.score,
+                if j.significant {
+                    String::new()
+                } else {
+                    format!(", which is not significant: {}", j.reason)
+                }
+            )
+        };
+        card.significant = false;
+        card.status = Status::NotSignificant;
+        if j.significant {
+            card.explanation = format!(
+                "not significant: an alternative to {}, and weaker — {why} ({})",
+                last.effect.key(),
+                card.explanation
+            );
+        }
+        Ok(Some(Outcome::Kept {
+            card: Some(card),
+            why,
+        }))
+    }
+}
+
+/// A pick whose coefficient is fitted on the short horizon from its linearised estimate,
+/// with the base parameters of its own axes, and the base with those parameters there:
+/// the start of its confirmation (the pick and the base as they are when that fails).
+fn short_start(
+    g: &Greedy<'_>,
+    train: &[Run],
+    pick: &discovery::TermPick,
+    iterations: usize,
+) -> (discovery::TermPick, LabModel) {
+    let mut m = g.current.clone();
+    let idx = m.add_term(Term {
+        coef: 0.0,
+        ..pick.term
+    });
+    let p = Param::TermCoef(idx as u8, pick.term.rotational());
+    let view = short_view(train);
+    let cs = candidate_scales(&term_home(pick.term.dof), g.scales.of(view));
+    let opts = crate::lm::LmOptions {
+        max_iter: iterations * 2,
+        threads: 1,
+        ..Default::default()
+    };
+    // With the base parameters of the term's own axes: the calibration may have bent
+    // them towards the missing force (a yaw damping near zero).
+    let own = crate::params::axis_params_of(&term_home(pick.term.dof));
+    let mut free = vec![p];
+    free.extend(g.current_free.iter().copied().filter(|q| own.contains(q)));
+    let fit = m
+        .with(&[p], &[pick.term.coef * pick.term.scale])
+        .ok()
+        .and_then(|m0| {
+            crate::calibrate::fit_scaled(&m0, train, &free, view, None, None, &opts, None, &cs).ok()
+        });
+    let fitted = fit
+        .as_ref()
+        .and_then(|f| f.model.terms().get(idx).map(|t| t.coef))
+        .filter(|c| c.is_finite());
+    // The base with those axis parameters where the short fit put them.
+    let base = fit.as_ref().and_then(|f| {
+        let qs: Vec<Param> = free.iter().copied().filter(|q| *q != p).collect();
+        let vs: Option<Vec<f64>> = qs.iter().map(|q| f.model.get(*q)).collect();
+        g.current.with(&qs, &vs?).ok()
+    });
+    let mut out = pick.clone();
+    match (fitted, base) {
+        (Some(c), Some(b)) => {
+            out.term.coef = c;
+            (out, b)
+        }
+        _ => (out, g.current.clone()),
+    }
+}
+
+/// A confirmed term's evidence card (as the term search writes it).
+pub(super) fn term_card(
+    c: &Confirmed,
+    j: &Judgement,
+    model: &LabModel,
+    round: usize,
+    pick: Option<&discovery::TermPick>,
+) -> Finding {
+    let names = model.command_names();
+    let Subject::Term(t) = c.subject else {
+        return effect_finding(c, j, model, round);
+    };
+    let mut f = Finding::blank_term(&t, &names);
+    f.significant = j.significant;
+    f.status = if j.significant {
+        Status::Significant
+    } else {
+        Status::NotSignificant
+    };
+    f.channels = j.channels.iter().map(|k| k.name().to_string()).collect();
+    f.view = view_name(j.view).into();
+    f.validation_rmse_reduction_pct = j.primary.clone();
+    f.validation_rmse_reduction_pct_free_run = j.free.clone();
+    f.validation_rmse_reduction_pct_shooting = j.shoot.clone();
+    f.params = param_reports(c);
+    let ex = explain(c, j, model);
+    let evidence = pick.map_or(String::new(), |p| {
+        format!(
+            " (found by sparse regression on the residual {}: explains {:.0} % of it, ΔBIC {:.0}, selected in {:.0} % of bootstrap resamples)",
+            crate::terms::DOF_FORCE.get(t.dof as usize).copied().unwrap_or("force"),
+            p.explained * 100.0,
+            p.dbic,
+            p.inclusion * 100.0
+        )
+    });
+    f.explanation = if j.significant {
+        format!("{ex}{evidence}")
+    } else {
+        format!("not significant: {} ({ex}{evidence})", j.reason)
+    };
+    f.delta_bic = Some(c.dbic);
+    f.score = j.score;
+    f.round = round;
+    f.conflicts = j.conflicts.clone();
+    f
+}
+
+/// The home channels a test left inconsistent, "heading, yaw_rate".
+fn home_names(home: &[Channel], tests: &[ChannelTest]) -> String {
+    tests
+        .iter()
+        .filter(|t| !t.consistent && home.iter().any(|h| crate::data::ch_name(*h) == t.channel))
+        .map(|t| t.channel.clone())
+        .collect::<Vec<_>>()
+        .join(", ")
+}
