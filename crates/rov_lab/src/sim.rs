@@ -33,17 +33,18 @@ use crate::terms::FILTER_TAUS_S;
 pub const DT_MAX_S: f64 = 0.05;
 
 /// A prediction of a run: one value per sample for each channel that is both measured
-/// and predicted.
+/// and predicted. The samples are shared (a clone, e.g. of a remembered simulation, copies
+/// no samples).
 #[derive(Debug, Clone, Default)]
 pub struct Prediction {
     /// Per channel (index as [`Channel::ALL`]).
-    pub y: [Option<Vec<f64>>; N_CHANNELS],
+    pub y: [Option<std::sync::Arc<Vec<f64>>>; N_CHANNELS],
 }
 
 impl Prediction {
     /// A channel's predicted samples.
     pub fn channel(&self, ch: Channel) -> Option<&[f64]> {
-        self.y[ch_index(ch)].as_deref()
+        self.y[ch_index(ch)].as_deref().map(Vec::as_slice)
     }
 }
 
@@ -526,9 +527,9 @@ fn simulate_uncached(
 ) -> Result<Prediction, LabError> {
     let chans = compared_channels(model, run);
     let n = run.len();
-    let mut out = Prediction::default();
+    let mut y: [Option<Vec<f64>>; N_CHANNELS] = Default::default();
     for ch in &chans {
-        out.y[ch_index(*ch)] = Some(Vec::with_capacity(n));
+        y[ch_index(*ch)] = Some(Vec::with_capacity(n));
     }
     let t0 = run.t.first().copied().unwrap_or(0.0);
     // The previous commands matter only to a sensor effect (thruster interference).
@@ -541,12 +542,14 @@ fn simulate_uncached(
         };
         let t_rel = run.t[k] - t0;
         for ch in &chans {
-            if let Some(v) = out.y[ch_index(*ch)].as_mut() {
+            if let Some(v) = y[ch_index(*ch)].as_mut() {
                 v.push(model.sensor_value(*ch, &s.state, t_rel, &pc));
             }
         }
     })?;
-    Ok(out)
+    Ok(Prediction {
+        y: y.map(|v| v.map(std::sync::Arc::new)),
+    })
 }
 
 /// Simulates a run like [`simulate_run`] and returns the state at every sample.
