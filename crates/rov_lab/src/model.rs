@@ -1281,7 +1281,9 @@ impl LabModel {
         }
     }
 
-    /// τ of the thrusters: the base allocation plus arms and reaction torques.
+    /// τ of the thrusters: the base allocation plus arms and reaction torques. No lab base
+    /// reads `state` here (the simulator relies on it to reuse τ while the commands are
+    /// held; a test checks it for every base).
     #[inline]
     pub fn thrust_tau(&self, f: &PerThruster, state: &ModelState) -> Vector6 {
         if let Base::Vehicle(v) = &self.base {

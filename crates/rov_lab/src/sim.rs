@@ -307,6 +307,10 @@ fn simulate_core(
     let mut lag_decay = [(0.0, 0.0); MAX_THRUSTERS];
     let mut filt_decay = [0.0; MAX_FILTERS];
     let mut next_reset = resets.iter().copied().filter(|&r| r > 0).peekable();
+    // The thrusters' τ of the last sub-step and the lagged commands it came from: τ is a
+    // function of those commands alone (no lab base reads the state there, see
+    // `LabModel::thrust_tau`), and without lag they stay the same while a command is held.
+    let mut thrust_memo: Option<(PerThruster, Vector6)> = None;
     for k in 0..n {
         if next_reset.peek() == Some(&k) {
             next_reset.next();
@@ -376,8 +380,14 @@ fn simulate_core(
                     *slot = mean;
                 }
             }
-            let f = model.thrusts(&eff);
-            let tau = model.thrust_tau(&f, &state);
+            let tau = match &thrust_memo {
+                Some((e, tau)) if same_bits(e, &eff) => *tau,
+                _ => {
+                    let tau = model.thrust_tau(&model.thrusts(&eff), &state);
+                    thrust_memo = Some((eff, tau));
+                    tau
+                }
+            };
             let drive = TermDrive {
                 signals: &signals,
                 filt: &filt,
@@ -407,6 +417,12 @@ fn simulate_core(
         }
     }
     Ok(())
+}
+
+/// Whether two command vectors are the same to the last bit.
+#[inline]
+fn same_bits(a: &PerThruster, b: &PerThruster) -> bool {
+    a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits())
 }
 
 /// The memo of one diagnosis's run simulations (see [`memo_scope`]).
@@ -637,6 +653,42 @@ mod tests {
             assert_eq!(memo_len(), Some((3, 1)));
         }
         assert_eq!(memo_len(), None, "the scope ends with its owner");
+    }
+
+    #[test]
+    fn thrust_tau_reads_no_state_on_any_base() {
+        // The simulator reuses τ of the thrusters while the lagged commands stay the same.
+        let text = std::fs::read_to_string(
+            std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+                .join("../../config/vehicles/bluerov2_heavy.toml"),
+        )
+        .unwrap();
+        let mut models: Vec<LabModel> = [
+            crate::BaseKind::Model1,
+            crate::BaseKind::Model2,
+            crate::BaseKind::Model3,
+        ]
+        .into_iter()
+        .map(|k| LabModel::default_base(k).unwrap())
+        .collect();
+        models.push(LabModel::from_vehicle_text(&text, "bluerov2_heavy.toml").unwrap());
+        let a = ModelState::default();
+        let b = ModelState::new(
+            Vector6::new(3.0, -2.0, 5.0, 0.4, -0.3, 2.5),
+            Vector6::new(0.5, -0.2, 0.3, 0.2, -0.1, 0.4),
+        );
+        for m in models {
+            let mut pct = [0.0; MAX_THRUSTERS];
+            for (i, p) in pct.iter_mut().enumerate() {
+                *p = 40.0 - 13.0 * i as f64;
+            }
+            let f = m.thrusts(&pct);
+            let (ta, tb) = (m.thrust_tau(&f, &a), m.thrust_tau(&f, &b));
+            assert!(ta.iter().any(|x| *x != 0.0));
+            for (x, y) in ta.iter().zip(tb.iter()) {
+                assert_eq!(x.to_bits(), y.to_bits(), "{}", model_name(&m));
+            }
+        }
     }
 
     #[test]
