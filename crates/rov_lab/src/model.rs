@@ -1534,8 +1534,13 @@ impl LabModel {
     #[inline]
     pub(crate) fn heading_offset_deg(&self, psi_rad: f64, prev: &PerThruster) -> f64 {
         let f = &self.fx;
-        let (s, c) = psi_rad.sin_cos();
-        let mut off = f.compass_dev_deg[0] * s + f.compass_dev_deg[1] * c;
+        // Without deviation the sin/cos terms are zeros (skipped: the same sum).
+        let mut off = if f.compass_dev_deg == [0.0; 2] {
+            0.0
+        } else {
+            let (s, c) = psi_rad.sin_cos();
+            f.compass_dev_deg[0] * s + f.compass_dev_deg[1] * c
+        };
         for (i, u) in prev.iter().enumerate().take(self.n_thr) {
             let e = f.emi_deg[self.thruster_group(i).index()];
             if e != 0.0 {
