@@ -428,20 +428,28 @@ impl ProcessModel {
         let rm = &ned_from_body.data.0;
         let [u, v, w, p, q, r] = nu.data.0[0];
         let vn = &current.vel_ned_mps;
-        let dot_col = |j: usize, x: &Vector3<f64>| rm[j][0] * x.x + rm[j][1] * x.y + rm[j][2] * x.z;
-        // ν_c = [Rᵀ v_c^n ; 0] and its derivative −S(ω) Rᵀ v_c^n (+ Rᵀ v̇_c^n).
-        let vc = [dot_col(0, vn), dot_col(1, vn), dot_col(2, vn)];
-        let mut vc_dot = [
-            vc[1] * r - vc[2] * q,
-            vc[2] * p - vc[0] * r,
-            vc[0] * q - vc[1] * p,
-        ];
         let an = &current.accel_ned_mps2;
-        if an.x != 0.0 || an.y != 0.0 || an.z != 0.0 {
-            for (i, d) in vc_dot.iter_mut().enumerate() {
-                *d += dot_col(i, an);
+        let dot_col = |j: usize, x: &Vector3<f64>| rm[j][0] * x.x + rm[j][1] * x.y + rm[j][2] * x.z;
+        // ν_c = [Rᵀ v_c^n ; 0] and its derivative −S(ω) Rᵀ v_c^n (+ Rᵀ v̇_c^n). In still
+        // water both are zeros, known before the attitude's trigonometry is: the kinetics
+        // below then need not wait for it (the same numbers, up to the sign of a zero).
+        let still = *vn == Vector3::zeros() && *an == Vector3::zeros();
+        let (vc, vc_dot) = if still {
+            ([0.0; 3], [0.0; 3])
+        } else {
+            let vc = [dot_col(0, vn), dot_col(1, vn), dot_col(2, vn)];
+            let mut vc_dot = [
+                vc[1] * r - vc[2] * q,
+                vc[2] * p - vc[0] * r,
+                vc[0] * q - vc[1] * p,
+            ];
+            if an.x != 0.0 || an.y != 0.0 || an.z != 0.0 {
+                for (i, d) in vc_dot.iter_mut().enumerate() {
+                    *d += dot_col(i, an);
+                }
             }
-        }
+            (vc, vc_dot)
+        };
         let nu_r = [u - vc[0], v - vc[1], w - vc[2], p, q, r];
 
         // Kirchhoff Coriolis C(ν_r)ν_r = [ω × a ; ν₁ × a + ω × b], (a, b) = M ν_r.

@@ -203,7 +203,7 @@ pub fn compare_on(model: &LabModel, run: &Run, scope: &str) -> Result<Comparison
         let measured = run.y.get(key.0).and_then(Clone::clone).unwrap_or_default();
         let predicted = pred
             .and_then(|p| p.y.get(key.0))
-            .and_then(Clone::clone)
+            .and_then(|v| v.as_deref().cloned())
             .unwrap_or_default();
         channels.push(ComparedChannel {
             name: key.name().to_string(),

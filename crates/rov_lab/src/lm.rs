@@ -114,22 +114,38 @@ where
 {
     let p = x.len();
     let n = r0.len();
-    let col = |i: usize| -> Vec<f64> {
+    // The step of column i and the point it is evaluated at.
+    let point = |i: usize| -> (f64, Vec<f64>) {
         let mut h = b[i].scale * opts.fd_fraction;
         if x[i] + h > b[i].hi {
             h = -h;
         }
         let mut xp = x.to_vec();
         xp[i] += h;
+        (h, xp)
+    };
+    let col = |i: usize| -> Vec<f64> {
+        let (h, xp) = point(i);
         match f(&xp) {
             Some(r) if r.len() == n => r.iter().zip(r0).map(|(a, c)| (a - c) / h).collect(),
             _ => vec![0.0; n],
         }
     };
     let threads = opts.threads.max(1).min(p.max(1));
-    let cols: Vec<Vec<f64>> = if threads <= 1 {
-        (0..p).map(col).collect()
-    } else {
+    if threads <= 1 {
+        // Straight into the matrix, column by column.
+        let mut j = DMatrix::zeros(n, p);
+        for i in 0..p {
+            let (h, xp) = point(i);
+            if let Some(r) = f(&xp).filter(|r| r.len() == n) {
+                for ((v, a), c) in j.column_mut(i).iter_mut().zip(&r).zip(r0) {
+                    *v = (a - c) / h;
+                }
+            }
+        }
+        return (j, p);
+    }
+    let cols: Vec<Vec<f64>> = {
         let mut out: Vec<Option<Vec<f64>>> = vec![None; p];
         std::thread::scope(|s| {
             let handles: Vec<_> = (0..threads)
@@ -240,6 +256,9 @@ where
     let sc: Vec<f64> = bounds.iter().map(|b| b.scale).collect();
     let mut refreshes = 0;
     let mut converged = false;
+    // The scaled Jacobian and its Gram matrix, kept while the Jacobian stays the same (a
+    // fresh one is kept over all later iterations; only Broyden updates change it).
+    let mut normal: Option<(DMatrix<f64>, DMatrix<f64>)> = None;
     while iterations < opts.max_iter {
         iterations += 1;
         if jac.is_none() {
@@ -247,20 +266,17 @@ where
             evaluations += evals;
             jac = Some(j);
             fresh = true;
+            normal = None;
         }
         let Some(j) = jac.as_mut() else { break };
         // Scaled normal equations: z = x / scale.
-        let js = {
-            let mut m = j.clone();
-            for (c, s) in sc.iter().enumerate() {
-                for v in m.column_mut(c).iter_mut() {
-                    *v *= s;
-                }
-            }
-            m
-        };
-        // Jᵀ J and Jᵀ r without forming Jᵀ (a copy of the whole Jacobian).
-        let mut a = js.tr_mul(&js);
+        let (js, a0) = normal.get_or_insert_with(|| {
+            let js = DMatrix::from_fn(n, p, |k, c| j[(k, c)] * sc[c]);
+            // Jᵀ J without forming Jᵀ (a copy of the whole Jacobian).
+            let a0 = js.tr_mul(&js);
+            (js, a0)
+        });
+        let mut a = a0.clone();
         let rv = DVector::from_column_slice(&r);
         let mut g = js.tr_mul(&rv);
         for i in 0..p {
@@ -325,6 +341,9 @@ where
         if broyden {
             for (dx, dr) in &updates {
                 broyden_update(j, dx, dr, &sc);
+            }
+            if !updates.is_empty() {
+                normal = None;
             }
             fresh = false;
         }

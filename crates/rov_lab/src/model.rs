@@ -1281,7 +1281,9 @@ impl LabModel {
         }
     }
 
-    /// τ of the thrusters: the base allocation plus arms and reaction torques.
+    /// τ of the thrusters: the base allocation plus arms and reaction torques. No lab base
+    /// reads `state` here (the simulator relies on it to reuse τ while the commands are
+    /// held; a test checks it for every base).
     #[inline]
     pub fn thrust_tau(&self, f: &PerThruster, state: &ModelState) -> Vector6 {
         if let Base::Vehicle(v) = &self.base {
@@ -1532,8 +1534,13 @@ impl LabModel {
     #[inline]
     pub(crate) fn heading_offset_deg(&self, psi_rad: f64, prev: &PerThruster) -> f64 {
         let f = &self.fx;
-        let (s, c) = psi_rad.sin_cos();
-        let mut off = f.compass_dev_deg[0] * s + f.compass_dev_deg[1] * c;
+        // Without deviation the sin/cos terms are zeros (skipped: the same sum).
+        let mut off = if f.compass_dev_deg == [0.0; 2] {
+            0.0
+        } else {
+            let (s, c) = psi_rad.sin_cos();
+            f.compass_dev_deg[0] * s + f.compass_dev_deg[1] * c
+        };
         for (i, u) in prev.iter().enumerate().take(self.n_thr) {
             let e = f.emi_deg[self.thruster_group(i).index()];
             if e != 0.0 {

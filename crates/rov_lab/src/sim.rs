@@ -33,17 +33,18 @@ use crate::terms::FILTER_TAUS_S;
 pub const DT_MAX_S: f64 = 0.05;
 
 /// A prediction of a run: one value per sample for each channel that is both measured
-/// and predicted.
+/// and predicted. The samples are shared (a clone, e.g. of a remembered simulation, copies
+/// no samples).
 #[derive(Debug, Clone, Default)]
 pub struct Prediction {
     /// Per channel (index as [`Channel::ALL`]).
-    pub y: [Option<Vec<f64>>; N_CHANNELS],
+    pub y: [Option<std::sync::Arc<Vec<f64>>>; N_CHANNELS],
 }
 
 impl Prediction {
     /// A channel's predicted samples.
     pub fn channel(&self, ch: Channel) -> Option<&[f64]> {
-        self.y[ch_index(ch)].as_deref()
+        self.y[ch_index(ch)].as_deref().map(Vec::as_slice)
     }
 }
 
@@ -306,6 +307,10 @@ fn simulate_core(
     let mut lag_decay = [(0.0, 0.0); MAX_THRUSTERS];
     let mut filt_decay = [0.0; MAX_FILTERS];
     let mut next_reset = resets.iter().copied().filter(|&r| r > 0).peekable();
+    // The thrusters' τ of the last sub-step and the lagged commands it came from: τ is a
+    // function of those commands alone (no lab base reads the state there, see
+    // `LabModel::thrust_tau`), and without lag they stay the same while a command is held.
+    let mut thrust_memo: Option<(PerThruster, Vector6)> = None;
     for k in 0..n {
         if next_reset.peek() == Some(&k) {
             next_reset.next();
@@ -375,8 +380,14 @@ fn simulate_core(
                     *slot = mean;
                 }
             }
-            let f = model.thrusts(&eff);
-            let tau = model.thrust_tau(&f, &state);
+            let tau = match &thrust_memo {
+                Some((e, tau)) if same_bits(e, &eff) => *tau,
+                _ => {
+                    let tau = model.thrust_tau(&model.thrusts(&eff), &state);
+                    thrust_memo = Some((eff, tau));
+                    tau
+                }
+            };
             let drive = TermDrive {
                 signals: &signals,
                 filt: &filt,
@@ -406,6 +417,12 @@ fn simulate_core(
         }
     }
     Ok(())
+}
+
+/// Whether two command vectors are the same to the last bit.
+#[inline]
+fn same_bits(a: &PerThruster, b: &PerThruster) -> bool {
+    a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits())
 }
 
 /// The memo of one diagnosis's run simulations (see [`memo_scope`]).
@@ -526,9 +543,9 @@ fn simulate_uncached(
 ) -> Result<Prediction, LabError> {
     let chans = compared_channels(model, run);
     let n = run.len();
-    let mut out = Prediction::default();
+    let mut y: [Option<Vec<f64>>; N_CHANNELS] = Default::default();
     for ch in &chans {
-        out.y[ch_index(*ch)] = Some(Vec::with_capacity(n));
+        y[ch_index(*ch)] = Some(Vec::with_capacity(n));
     }
     let t0 = run.t.first().copied().unwrap_or(0.0);
     // The previous commands matter only to a sensor effect (thruster interference).
@@ -541,12 +558,14 @@ fn simulate_uncached(
         };
         let t_rel = run.t[k] - t0;
         for ch in &chans {
-            if let Some(v) = out.y[ch_index(*ch)].as_mut() {
+            if let Some(v) = y[ch_index(*ch)].as_mut() {
                 v.push(model.sensor_value(*ch, &s.state, t_rel, &pc));
             }
         }
     })?;
-    Ok(out)
+    Ok(Prediction {
+        y: y.map(|v| v.map(std::sync::Arc::new)),
+    })
 }
 
 /// Simulates a run like [`simulate_run`] and returns the state at every sample.
@@ -634,6 +653,42 @@ mod tests {
             assert_eq!(memo_len(), Some((3, 1)));
         }
         assert_eq!(memo_len(), None, "the scope ends with its owner");
+    }
+
+    #[test]
+    fn thrust_tau_reads_no_state_on_any_base() {
+        // The simulator reuses τ of the thrusters while the lagged commands stay the same.
+        let text = std::fs::read_to_string(
+            std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+                .join("../../config/vehicles/bluerov2_heavy.toml"),
+        )
+        .unwrap();
+        let mut models: Vec<LabModel> = [
+            crate::BaseKind::Model1,
+            crate::BaseKind::Model2,
+            crate::BaseKind::Model3,
+        ]
+        .into_iter()
+        .map(|k| LabModel::default_base(k).unwrap())
+        .collect();
+        models.push(LabModel::from_vehicle_text(&text, "bluerov2_heavy.toml").unwrap());
+        let a = ModelState::default();
+        let b = ModelState::new(
+            Vector6::new(3.0, -2.0, 5.0, 0.4, -0.3, 2.5),
+            Vector6::new(0.5, -0.2, 0.3, 0.2, -0.1, 0.4),
+        );
+        for m in models {
+            let mut pct = [0.0; MAX_THRUSTERS];
+            for (i, p) in pct.iter_mut().enumerate() {
+                *p = 40.0 - 13.0 * i as f64;
+            }
+            let f = m.thrusts(&pct);
+            let (ta, tb) = (m.thrust_tau(&f, &a), m.thrust_tau(&f, &b));
+            assert!(ta.iter().any(|x| *x != 0.0));
+            for (x, y) in ta.iter().zip(tb.iter()) {
+                assert_eq!(x.to_bits(), y.to_bits(), "{}", model_name(&m));
+            }
+        }
     }
 
     #[test]
