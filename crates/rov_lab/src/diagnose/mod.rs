@@ -798,9 +798,14 @@ pub fn diagnose(
             (!chans.is_empty()).then(|| (f.effect.clone(), chans))
         })
         .collect();
+    // Said only while it is true of the result: the accepted findings still leave a
+    // share of the base's misfit (`Inadequacy::left_by`; with nothing accepted, all of it),
+    // or a trading finding was refused. A base missing many channels because one effect
+    // is missing (the GUI's moment-arm case: pitch 25×, and five channels beyond 2× with
+    // it) is not called inadequate once that effect is found.
     let base_note = inadequacy_note(
         base_inadequacy.as_ref(),
-        inadequacy(&g.current_eval, closed_loop).as_ref(),
+        Inadequacy::left_by(&base_eval, &g.current_eval, closed_loop).as_ref(),
         &refused,
     );
     let summary = match &base_note {
