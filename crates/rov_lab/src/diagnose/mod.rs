@@ -407,6 +407,9 @@ pub fn diagnose(
     let base_tests = base_tested.tests.clone();
     let mut accepted_terms: Vec<crate::terms::Term> = Vec::new();
     let mut search_notes: Vec<String> = Vec::new();
+    // Library terms whose residual force is a catalog effect's signature, per (DOF,
+    // effect), in the order found: one note each (`catalog_like_note`).
+    let mut catalog_like: Vec<((usize, &str), Vec<String>)> = Vec::new();
     let names = g.current.command_names();
     // The last accepted catalog effect against the library's terms of its own DOFs, as a
     // replacement, when it leaves a home channel inconsistent (`replacement`).
@@ -540,16 +543,11 @@ pub fn diagnose(
             None,
         )?;
         for (dof, formula, e) in &notes.catalog_like {
-            let s = format!(
-                "the residual {} follows {formula}, which is the signature of the catalog effect {} (reported under it, not as a new term)",
-                crate::terms::DOF_FORCE
-                    .get(*dof)
-                    .copied()
-                    .unwrap_or("force"),
-                e.key()
-            );
-            if !search_notes.contains(&s) {
-                search_notes.push(s);
+            let key = (*dof, e.key());
+            match catalog_like.iter_mut().find(|(k, _)| *k == key) {
+                Some((_, forms)) if forms.contains(formula) => {}
+                Some((_, forms)) => forms.push(formula.clone()),
+                None => catalog_like.push((key, vec![formula.clone()])),
             }
         }
         // The best pick of each DOF, and its runner-up only when it explains nearly as
@@ -669,6 +667,11 @@ pub fn diagnose(
             opts.threads,
         )?;
     }
+    search_notes.extend(
+        catalog_like
+            .iter()
+            .map(|((dof, effect), forms)| catalog_like_note(*dof, effect, forms)),
+    );
     // Remaining evaluated findings, best first.
     let mut rest: Vec<Finding> = latest.into_values().collect();
     rest.extend(latest_terms);
@@ -1135,8 +1138,40 @@ fn effect_finding(c: &Confirmed, j: &Judgement, model: &LabModel, round: usize) 
     f
 }
 
+/// The term search's note for library terms whose residual force follows a catalog
+/// effect's signature: reported under the effect, not as new terms.
+fn catalog_like_note(dof: usize, effect: &str, forms: &[String]) -> String {
+    let force = crate::terms::DOF_FORCE.get(dof).copied().unwrap_or("force");
+    let listed = match forms {
+        [] => String::new(),
+        [one] => one.clone(),
+        [init @ .., last] => format!("{} and {last}", init.join(", ")),
+    };
+    let (them, terms) = if forms.len() > 1 {
+        ("these are", "new terms")
+    } else {
+        ("it is", "a new term")
+    };
+    format!(
+        "the residual {force} follows {listed}: {them} the signature of the catalog effect {effect} (reported under it, not as {terms})"
+    )
+}
+
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn catalog_like_terms_make_one_note_per_effect() {
+        let forms: Vec<String> = ["w*|r|", "r*|w|", "r^2"].map(String::from).into();
+        assert_eq!(
+            catalog_like_note(5, "thrust-asymmetry", &forms),
+            "the residual yaw moment follows w*|r|, r*|w| and r^2: these are the signature of the catalog effect thrust-asymmetry (reported under it, not as new terms)"
+        );
+        assert_eq!(
+            catalog_like_note(0, "thruster-deadzone", &forms[..1]),
+            "the residual surge force follows w*|r|: it is the signature of the catalog effect thruster-deadzone (reported under it, not as a new term)"
+        );
+    }
+
     use super::*;
     use crate::calibrate::structural_scales;
     use nalgebra::{DMatrix, DVector};
