@@ -160,6 +160,7 @@ impl<'a> Greedy<'a> {
                 &self.current_free,
                 top[i],
                 iterations,
+                false,
                 &caches,
             )
         })
@@ -197,6 +198,7 @@ impl<'a> Greedy<'a> {
                     c1,
                     c1.contained,
                     iterations,
+                    false,
                     &self.scales,
                     self.closed_loop,
                 )
@@ -226,6 +228,57 @@ impl<'a> Greedy<'a> {
                 .then(b.1.score.total_cmp(&a.1.score))
         });
         judged
+    }
+
+    /// The confirmation of an accepted candidate again, with every fit (each stage-1
+    /// start that the short confirmation tried, the settling, the refinement) continued
+    /// to convergence ([`continued`]); `None` unless it fits the training runs at least
+    /// as well as `accepted` (the same refinement objective) and stays significant. Paid
+    /// only for accepted findings: their parameters are what the report states.
+    pub(super) fn polish(
+        &self,
+        s: &Screened,
+        accepted: &Confirmed,
+        iterations: usize,
+    ) -> Option<(Confirmed, Judgement)> {
+        if !accepted.ran_out {
+            // Every fit converged within the short budget: a longer one follows the same
+            // path to the same result.
+            return None;
+        }
+        let caches = Caches {
+            short: &self.cache_short,
+            shoot: &self.cache_shoot,
+            free: &self.cache_free,
+            scales: &self.scales,
+            closed_loop: self.closed_loop,
+        };
+        let (c1, _) = confirm_stage1(
+            &self.current,
+            &self.current_eval,
+            self.train,
+            self.val,
+            &self.current_free,
+            s,
+            iterations,
+            true,
+            &caches,
+        )
+        .ok()?;
+        let (c, j) = refine(
+            &self.current,
+            &self.current_eval,
+            self.train,
+            self.val,
+            &c1,
+            c1.contained,
+            iterations,
+            true,
+            &self.scales,
+            self.closed_loop,
+        )
+        .ok()?;
+        (j.significant && c.fit.cost <= accepted.fit.cost).then_some((c, j))
     }
 
     /// Whether the current model is structurally inadequate for the data

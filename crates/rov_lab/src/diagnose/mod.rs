@@ -27,7 +27,9 @@
 //!    there are any (a depth drift with the heave velocity, a compass deviation with the
 //!    yaw rate: [`kinematic_ratio`]).
 //! 5. **Greedy**: accept the best, reweight the channels, screen again on top of it,
-//!    until nothing passes.
+//!    until nothing passes. The confirmation of the accepted effect is done again with
+//!    every fit continued to convergence when one of them ran out of the short LM
+//!    budget that ranks the candidates ([`Greedy::polish`]): its parameters are reported.
 //! 6. **Replacement**: when the last accepted effect leaves one of its home channels
 //!    inconsistent, its DOF's library terms are confirmed on the model without it; a term
 //!    that scores higher on the held-out runs and brings those channels within the
@@ -298,6 +300,18 @@ pub fn diagnose(
         };
         let Some(best_effect) = best.subject.effect() else {
             break;
+        };
+        // Accepted: its fits are continued to convergence (`Greedy::polish`).
+        let polished = top
+            .iter()
+            .find(|s| s.cand.effect == best_effect)
+            .and_then(|s| g.polish(s, best, opts.confirm_iterations));
+        let (best, bj) = match &polished {
+            Some((c, j)) => {
+                latest.insert(best_effect, effect_finding(c, j, &g.current, round));
+                (c, j)
+            }
+            None => (best, bj),
         };
         // Ambiguity with other significant candidates of this round.
         let mut amb = Vec::new();
@@ -1037,6 +1051,12 @@ pub fn add_to_model(
             return Err(LabError::Model {
                 detail: format!("{}: no start could be fitted", e.key()),
             });
+        };
+        // As in the diagnosis: an accepted effect's fits are continued to convergence.
+        let polished = g.polish(s, c, opts.confirm_iterations);
+        let (c, j) = match &polished {
+            Some((pc, pj)) => (pc, pj),
+            None => (c, j),
         };
         let finding = effect_finding(c, j, &g.current, round + 1);
         g.accept(c)?;

@@ -178,6 +178,7 @@ pub(in crate::diagnose) fn confirm_term(
         )
     });
     let signature_failed = signature_failed.or(ci_spans_zero);
+    let ran_out = !fit.lm.converged;
     let c = Confirmed {
         subject: Subject::Term(fitted_term),
         contained: false,
@@ -189,6 +190,7 @@ pub(in crate::diagnose) fn confirm_term(
         dbic,
         view,
         signature_failed,
+        ran_out,
     };
     let j = judge(base_eval, &c, closed_loop);
     Ok((c, j))
