@@ -613,52 +613,17 @@ pub fn diagnose(
             let Subject::Term(t) = c.subject else {
                 continue;
             };
-            let id = t.id(&names);
             let pick = top
                 .iter()
                 .find(|p| p.term.dof == t.dof && p.term.kind == t.kind);
             let significant = j.significant && k == 0;
-            let mut f = Finding::blank_term(&t, &names);
-            f.significant = significant;
-            f.status = if significant {
-                Status::Significant
-            } else {
-                Status::NotSignificant
-            };
-            f.channels = j.channels.iter().map(|k| k.name().to_string()).collect();
-            f.view = view_name(j.view).into();
-            f.validation_rmse_reduction_pct = j.primary.clone();
-            f.validation_rmse_reduction_pct_free_run = j.free.clone();
-            f.validation_rmse_reduction_pct_shooting = j.shoot.clone();
-            f.params = param_reports(&c);
-            let ex = explain(&c, &j, &g.current);
-            let evidence = pick.map_or(String::new(), |p| {
-                format!(
-                    " (found by sparse regression on the residual {}: explains {:.0} % of it, ΔBIC {:.0}, selected in {:.0} % of bootstrap resamples)",
-                    crate::terms::DOF_FORCE.get(t.dof as usize).copied().unwrap_or("force"),
-                    p.explained * 100.0,
-                    p.dbic,
-                    p.inclusion * 100.0
-                )
-            });
-            f.explanation = if significant {
-                format!("{ex}{evidence}")
-            } else if j.significant {
-                format!("not significant: weaker than a better term this round ({ex}{evidence})")
-            } else {
-                format!("not significant: {} ({ex}{evidence})", j.reason)
-            };
-            f.delta_bic = Some(c.dbic);
-            f.score = j.score;
-            f.round = round;
-            f.conflicts = j.conflicts.clone();
+            let f = term_card(&c, &j, &g.current, round, pick.copied(), k > 0);
             if significant {
                 findings.push(f);
                 best_term = Some((c, j));
             } else {
                 latest_terms.push(f);
             }
-            let _ = id;
         }
         let Some((best, _)) = best_term else {
             break;
@@ -1087,28 +1052,7 @@ pub fn add_to_model(
             continue;
         };
         let names = g.current.command_names();
-        let mut finding = Finding::blank_term(&t, &names);
-        finding.significant = j.significant;
-        finding.status = if j.significant {
-            Status::Significant
-        } else {
-            Status::NotSignificant
-        };
-        finding.channels = j.channels.iter().map(|k| k.name().to_string()).collect();
-        finding.view = view_name(j.view).into();
-        finding.validation_rmse_reduction_pct = j.primary.clone();
-        finding.validation_rmse_reduction_pct_free_run = j.free.clone();
-        finding.validation_rmse_reduction_pct_shooting = j.shoot.clone();
-        finding.params = param_reports(&c);
-        let ex = explain(&c, &j, &g.current);
-        finding.explanation = if j.significant {
-            ex
-        } else {
-            format!("not significant: {} ({ex})", j.reason)
-        };
-        finding.delta_bic = Some(c.dbic);
-        finding.score = j.score;
-        finding.conflicts = j.conflicts.clone();
+        let finding = term_card(&c, &j, &g.current, 0, None, false);
         g.accept(&c)?;
         steps.push(AddedStep {
             label: format!("+ {}", t.id(&names)),
@@ -1124,6 +1068,59 @@ pub fn add_to_model(
         steps,
         notes,
     })
+}
+
+/// The evidence card of a confirmed discovered term: the diagnosis' term rounds, the
+/// replacement test and `lab add --terms` all write it here. `outranked`: a better term
+/// was accepted this round, so a significant one is reported as not significant.
+fn term_card(
+    c: &Confirmed,
+    j: &Judgement,
+    model: &LabModel,
+    round: usize,
+    pick: Option<&discovery::TermPick>,
+    outranked: bool,
+) -> Finding {
+    let names = model.command_names();
+    let Subject::Term(t) = c.subject else {
+        return effect_finding(c, j, model, round);
+    };
+    let significant = j.significant && !outranked;
+    let mut f = Finding::blank_term(&t, &names);
+    f.significant = significant;
+    f.status = if significant {
+        Status::Significant
+    } else {
+        Status::NotSignificant
+    };
+    f.channels = j.channels.iter().map(|k| k.name().to_string()).collect();
+    f.view = view_name(j.view).into();
+    f.validation_rmse_reduction_pct = j.primary.clone();
+    f.validation_rmse_reduction_pct_free_run = j.free.clone();
+    f.validation_rmse_reduction_pct_shooting = j.shoot.clone();
+    f.params = param_reports(c);
+    let ex = explain(c, j, model);
+    let evidence = pick.map_or(String::new(), |p| {
+        format!(
+            " (found by sparse regression on the residual {}: explains {:.0} % of it, ΔBIC {:.0}, selected in {:.0} % of bootstrap resamples)",
+            crate::terms::DOF_FORCE.get(t.dof as usize).copied().unwrap_or("force"),
+            p.explained * 100.0,
+            p.dbic,
+            p.inclusion * 100.0
+        )
+    });
+    f.explanation = if significant {
+        format!("{ex}{evidence}")
+    } else if j.significant {
+        format!("not significant: weaker than a better term this round ({ex}{evidence})")
+    } else {
+        format!("not significant: {} ({ex}{evidence})", j.reason)
+    };
+    f.delta_bic = Some(c.dbic);
+    f.score = j.score;
+    f.round = round;
+    f.conflicts = j.conflicts.clone();
+    f
 }
 
 /// The evidence card of a confirmed catalog effect.

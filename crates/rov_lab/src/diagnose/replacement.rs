@@ -194,7 +194,7 @@ pub(super) fn try_replace(
         last.effect.key()
     );
 
-    let mut card = term_card(&c, &j, &g.current, round, top.get(i).copied());
+    let mut card = term_card(&c, &j, &g.current, round, top.get(i).copied(), false);
     if preferred {
         let why = format!(
             "{both} the term (held-out score {:.1} against {:.1}; it brings {} within {} noise floors, which {} left inconsistent)",
@@ -299,53 +299,6 @@ fn short_start(
         }
         _ => (out, g.current.clone()),
     }
-}
-
-/// A confirmed term's evidence card (as the term search writes it).
-pub(super) fn term_card(
-    c: &Confirmed,
-    j: &Judgement,
-    model: &LabModel,
-    round: usize,
-    pick: Option<&discovery::TermPick>,
-) -> Finding {
-    let names = model.command_names();
-    let Subject::Term(t) = c.subject else {
-        return effect_finding(c, j, model, round);
-    };
-    let mut f = Finding::blank_term(&t, &names);
-    f.significant = j.significant;
-    f.status = if j.significant {
-        Status::Significant
-    } else {
-        Status::NotSignificant
-    };
-    f.channels = j.channels.iter().map(|k| k.name().to_string()).collect();
-    f.view = view_name(j.view).into();
-    f.validation_rmse_reduction_pct = j.primary.clone();
-    f.validation_rmse_reduction_pct_free_run = j.free.clone();
-    f.validation_rmse_reduction_pct_shooting = j.shoot.clone();
-    f.params = param_reports(c);
-    let ex = explain(c, j, model);
-    let evidence = pick.map_or(String::new(), |p| {
-        format!(
-            " (found by sparse regression on the residual {}: explains {:.0} % of it, ΔBIC {:.0}, selected in {:.0} % of bootstrap resamples)",
-            crate::terms::DOF_FORCE.get(t.dof as usize).copied().unwrap_or("force"),
-            p.explained * 100.0,
-            p.dbic,
-            p.inclusion * 100.0
-        )
-    });
-    f.explanation = if j.significant {
-        format!("{ex}{evidence}")
-    } else {
-        format!("not significant: {} ({ex}{evidence})", j.reason)
-    };
-    f.delta_bic = Some(c.dbic);
-    f.score = j.score;
-    f.round = round;
-    f.conflicts = j.conflicts.clone();
-    f
 }
 
 /// The home channels a test left inconsistent, "heading, yaw_rate".
