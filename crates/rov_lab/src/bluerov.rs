@@ -170,12 +170,12 @@ pub fn bluerov_to_series_inputs(text: &str, label: &str) -> Result<BlueRovLog, L
             row.vertical_pct,
         ));
         let pct = |x: f64| (x * 100.0).clamp(-100.0, 100.0);
-        c[CommandChannel::Surge.index()] = pct(s);
-        c[CommandChannel::Sway.index()] = pct(-sw);
-        c[CommandChannel::Heave.index()] = pct(-h);
-        c[CommandChannel::Roll.index()] = pct(ro);
-        c[CommandChannel::Pitch.index()] = pct(-pi);
-        c[CommandChannel::Yaw.index()] = pct(-y);
+        c[CommandChannel::SURGE.index()] = pct(s);
+        c[CommandChannel::SWAY.index()] = pct(-sw);
+        c[CommandChannel::HEAVE.index()] = pct(-h);
+        c[CommandChannel::ROLL.index()] = pct(ro);
+        c[CommandChannel::PITCH.index()] = pct(-pi);
+        c[CommandChannel::YAW.index()] = pct(-y);
         inputs.push(c);
         series.rows.push(row);
     }
@@ -186,7 +186,7 @@ pub fn bluerov_to_series_inputs(text: &str, label: &str) -> Result<BlueRovLog, L
         ));
     }
     let mut present = [true; N_COMMANDS];
-    present[CommandChannel::Lateral.index()] = false;
+    present[CommandChannel::LATERAL.index()] = false;
     Ok(BlueRovLog {
         series,
         inputs,

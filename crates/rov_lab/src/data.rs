@@ -6,7 +6,7 @@
 //! to commands 0..k−1 only; [`crate::sim`] follows exactly this.
 
 use rov_dynamics::models::Channel;
-use rov_dynamics::models::vehicle::{CommandChannel, Commands, N_COMMANDS};
+use rov_dynamics::models::vehicle::{ChannelTable, CommandChannel, Commands, N_COMMANDS};
 use rov_dynamics::thrusters::ThrustPct;
 use rov_types::measurement::{MeasurementSeries, OptionalChannel};
 use serde::Serialize;
@@ -180,12 +180,17 @@ pub struct Run {
     pub t: Vec<f64>,
     /// The Pro 4 thruster commands held from each sample (port, starboard, vertical).
     pub cmd: Vec<ThrustPct>,
-    /// Every command channel held from each sample (percent; [`CommandChannel`] order):
-    /// the Pro 4's three thrusters, and any other channel the data has (a lateral
-    /// thruster, a vehicle's body-axis demands).
+    /// Every command channel held from each sample (percent; [`CommandChannel`] index
+    /// order of [`Run::channels`]): the Pro 4's three thrusters, and any other channel the
+    /// data has (a lateral thruster, a vehicle's body-axis demands, free-named channels
+    /// such as per-thruster ESC commands).
     pub inputs: Vec<Commands>,
     /// Which command channels the data holds.
     pub input_present: [bool; N_COMMANDS],
+    /// Names of the run's free command channels (indices from
+    /// [`rov_dynamics::models::vehicle::N_BUILTIN`]); a model with free channels reads a
+    /// run only after [`Run::align_channels`] to its own table.
+    pub channels: ChannelTable,
     /// Measured channels (heading unwrapped, deg); NaN = missing sample.
     pub y: [Option<Vec<f64>>; N_CHANNELS],
     /// Locally smoothed channels (quadratic fit over ±0.3 s), for re-initialisation.
@@ -411,6 +416,125 @@ impl Run {
         Self::from_series_inputs(series, name, None)
     }
 
+    /// Runs of a series whose commands come as named series (channel name → percent on
+    /// the series' rows, one value per row; NaN holds the previous value, 0 before the
+    /// first): the constructor for any log whose command channels a map names (built-in
+    /// names keep their meaning; any other valid name becomes a free channel of the runs'
+    /// [`ChannelTable`], in the order given). The runs get the same real-log treatment as a
+    /// measurement CSV ([`crate::ingest::series_runs_with`]: gaps split them, spikes are
+    /// excluded, closed-loop commands are recognised). The Pro 4 view ([`Run::cmd`]) is
+    /// the `port`/`starboard`/`vertical` series where named, else the series' own columns.
+    /// `raw` as in [`crate::ingest::series_runs_with`] (for a decimated log).
+    pub fn runs_from_named_commands(
+        series: &MeasurementSeries,
+        label: &str,
+        commands: &[(String, Vec<f64>)],
+        raw: Option<&crate::stream::RawStats>,
+    ) -> Result<Vec<Self>, LabError> {
+        let n = series.rows.len();
+        let mut table = ChannelTable::builtin();
+        let mut present = [false; N_COMMANDS];
+        let mut inputs: Vec<Commands> = vec![[0.0; N_COMMANDS]; n];
+        let mut series = series.clone();
+        for (name, values) in commands {
+            let c = table.intern(name).map_err(|e| LabError::Data {
+                run: label.into(),
+                detail: e.to_string(),
+            })?;
+            if values.len() != n {
+                return Err(LabError::Data {
+                    run: label.into(),
+                    detail: format!(
+                        "command channel {name} has {} values for {n} rows",
+                        values.len()
+                    ),
+                });
+            }
+            let i = c.index();
+            present[i] = true;
+            let mut held = 0.0;
+            for (row, (v, inp)) in series.rows.iter_mut().zip(values.iter().zip(&mut inputs)) {
+                if v.is_finite() {
+                    held = v.clamp(-100.0, 100.0);
+                }
+                inp[i] = held;
+                match c {
+                    CommandChannel::PORT => row.port_pct = held,
+                    CommandChannel::STARBOARD => row.starboard_pct = held,
+                    CommandChannel::VERTICAL => row.vertical_pct = held,
+                    _ => {}
+                }
+            }
+        }
+        // The Pro 4 view's channels not named keep the series' own columns.
+        for c in [
+            CommandChannel::PORT,
+            CommandChannel::STARBOARD,
+            CommandChannel::VERTICAL,
+        ] {
+            if !present[c.index()] {
+                for (row, inp) in series.rows.iter().zip(&mut inputs) {
+                    inp[c.index()] = match c {
+                        CommandChannel::PORT => row.port_pct,
+                        CommandChannel::STARBOARD => row.starboard_pct,
+                        _ => row.vertical_pct,
+                    };
+                }
+            }
+        }
+        let mut runs =
+            crate::ingest::series_runs_with(&series, label, Some((inputs, present)), raw)?;
+        for r in &mut runs {
+            r.channels = table.clone();
+            r.treatment.closed_loop = crate::ingest::feedback_links(r);
+        }
+        Ok(runs)
+    }
+
+    /// Re-indexes the run's commands to a model's channel table (by name): the table's
+    /// channels take its indices, the run's other free channels follow (dropped, with a
+    /// note, beyond the capacity). Built-in channels never move; a run and a table with
+    /// the same free names in the same order are left as they are.
+    pub fn align_channels(&mut self, table: &ChannelTable) {
+        if self.channels == *table {
+            return;
+        }
+        let mut target = table.clone();
+        let mut dropped = Vec::new();
+        for (k, n) in self.channels.free_names().iter().enumerate() {
+            let from = rov_dynamics::models::vehicle::N_BUILTIN + k;
+            if self.input_present.get(from).copied().unwrap_or(false) && target.intern(n).is_err() {
+                dropped.push(n.clone());
+            }
+        }
+        let map = target.remap_from(&self.channels);
+        for c in &mut self.inputs {
+            let old = *c;
+            for (i, m) in map.iter().enumerate() {
+                c[i] = m.and_then(|j| old.get(j).copied()).unwrap_or(0.0);
+            }
+        }
+        let old = self.input_present;
+        for (i, m) in map.iter().enumerate() {
+            self.input_present[i] = m.and_then(|j| old.get(j).copied()).unwrap_or(false);
+        }
+        self.channels = target;
+        if !dropped.is_empty() {
+            self.treatment.notes.push(format!(
+                "command channel(s) {} not read: the model's channels fill the command vector",
+                dropped.join(", ")
+            ));
+        }
+    }
+
+    /// The name of one of the run's command channels.
+    pub fn channel_name(&self, c: CommandChannel) -> String {
+        self.channels
+            .name(c)
+            .map(str::to_string)
+            .unwrap_or_else(|| format!("channel{}", c.index()))
+    }
+
     /// [`Run::from_series`] with the full set of command channels (one vector per row and
     /// which channels are present) when the data has more than the Pro 4's three.
     pub fn from_series_inputs(
@@ -446,9 +570,9 @@ impl Run {
             _ => {
                 let mut p = [false; N_COMMANDS];
                 for c in [
-                    CommandChannel::Port,
-                    CommandChannel::Starboard,
-                    CommandChannel::Vertical,
+                    CommandChannel::PORT,
+                    CommandChannel::STARBOARD,
+                    CommandChannel::VERTICAL,
                 ] {
                     p[c.index()] = true;
                 }
@@ -629,6 +753,7 @@ impl Run {
             cmd,
             inputs,
             input_present,
+            channels: ChannelTable::builtin(),
             y,
             smooth,
             noise,
@@ -732,10 +857,28 @@ impl Run {
 /// A Pro 4 command as a command vector (the port, starboard and vertical channels).
 pub fn commands_of_pct(c: &ThrustPct) -> Commands {
     let mut out = [0.0; N_COMMANDS];
-    out[CommandChannel::Port.index()] = c.port;
-    out[CommandChannel::Starboard.index()] = c.starboard;
-    out[CommandChannel::Vertical.index()] = c.vertical;
+    out[CommandChannel::PORT.index()] = c.port;
+    out[CommandChannel::STARBOARD.index()] = c.starboard;
+    out[CommandChannel::VERTICAL.index()] = c.vertical;
     out
+}
+
+/// The runs re-indexed to a channel table (borrowed as they are when every run already
+/// uses it, the case of every Pro 4 model and every vehicle whose log names the same free
+/// channels): the lab's entry points call it so a model reads each run's channels by name.
+pub fn aligned<'a>(runs: &'a [Run], table: &ChannelTable) -> std::borrow::Cow<'a, [Run]> {
+    if runs.iter().all(|r| r.channels == *table) {
+        return std::borrow::Cow::Borrowed(runs);
+    }
+    std::borrow::Cow::Owned(
+        runs.iter()
+            .map(|r| {
+                let mut r = r.clone();
+                r.align_channels(table);
+                r
+            })
+            .collect(),
+    )
 }
 
 /// Constant-command segments of the Pro 4's three thrusters (a change of more than
@@ -744,9 +887,9 @@ pub fn segments_of(t: &[f64], cmd: &[ThrustPct]) -> Vec<Segment> {
     let inputs: Vec<Commands> = cmd.iter().map(commands_of_pct).collect();
     let mut present = [false; N_COMMANDS];
     for c in [
-        CommandChannel::Port,
-        CommandChannel::Starboard,
-        CommandChannel::Vertical,
+        CommandChannel::PORT,
+        CommandChannel::STARBOARD,
+        CommandChannel::VERTICAL,
     ] {
         present[c.index()] = true;
     }

@@ -58,6 +58,8 @@ impl ChannelKey {
 
 /// Evaluates a model on runs in both views.
 pub fn evaluate(model: &LabModel, runs: &[Run]) -> Result<Evaluation, LabError> {
+    let runs = crate::data::aligned(runs, model.channel_table());
+    let runs = &runs[..];
     let mut free = Vec::with_capacity(runs.len());
     let mut shoot = Vec::with_capacity(runs.len());
     for r in runs {

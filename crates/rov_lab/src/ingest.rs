@@ -257,7 +257,7 @@ pub fn feedback_links(run: &Run) -> Vec<FeedbackLink> {
     if n < 50 {
         return out;
     }
-    for c in CommandChannel::ALL {
+    for c in run.channels.all() {
         if !run.input_present[c.index()] {
             continue;
         }
@@ -288,7 +288,7 @@ pub fn feedback_links(run: &Run) -> Vec<FeedbackLink> {
             && r2 >= FEEDBACK_EXPLAINED
         {
             out.push(FeedbackLink {
-                command: c.name().to_string(),
+                command: run.channel_name(c),
                 output: ch_name(ch).to_string(),
                 explained: r2,
             });
@@ -305,10 +305,10 @@ fn extra_command_columns(header: &[&str]) -> Vec<(usize, CommandChannel)> {
         .enumerate()
         .filter_map(|(i, h)| {
             let name = h.strip_suffix("_pct")?;
-            let c = CommandChannel::parse(name)?;
+            let c = CommandChannel::parse_builtin(name)?;
             (!matches!(
                 c,
-                CommandChannel::Port | CommandChannel::Starboard | CommandChannel::Vertical
+                CommandChannel::PORT | CommandChannel::STARBOARD | CommandChannel::VERTICAL
             ))
             .then_some((i, c))
         })
@@ -383,9 +383,9 @@ pub fn measurement_runs(text: &str, label: &str) -> Result<Vec<Run>, LabError> {
     } else {
         let mut present = [false; N_COMMANDS];
         for c in [
-            CommandChannel::Port,
-            CommandChannel::Starboard,
-            CommandChannel::Vertical,
+            CommandChannel::PORT,
+            CommandChannel::STARBOARD,
+            CommandChannel::VERTICAL,
         ] {
             present[c.index()] = true;
         }

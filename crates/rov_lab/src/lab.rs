@@ -122,6 +122,8 @@ pub fn fit_with_effects(
     effects: &[EffectId],
     opts: &LmOptions,
 ) -> Result<(LabModel, Vec<FittedParam>), LabError> {
+    let runs = crate::data::aligned(runs, model.channel_table());
+    let runs = &runs[..];
     let d = crate::diagnose::DiagnoseOptions {
         threads: opts.threads,
         calibration_iterations: opts.max_iter,
@@ -146,6 +148,8 @@ pub fn compare(
     effects: &[EffectId],
     threads: usize,
 ) -> Result<CompareReport, LabError> {
+    let runs = crate::data::aligned(runs, model.channel_table());
+    let runs = &runs[..];
     let mut notes = Vec::new();
     let (m, params) = if effects.is_empty() {
         (model.clone(), Vec::new())
@@ -398,6 +402,11 @@ pub fn add_with_terms(
     val: &[Run],
     threads: usize,
 ) -> Result<AddReport, LabError> {
+    let (train, val) = (
+        crate::data::aligned(train, model.channel_table()),
+        crate::data::aligned(val, model.channel_table()),
+    );
+    let (train, val) = (&train[..], &val[..]);
     let opts = crate::diagnose::DiagnoseOptions {
         threads,
         ..Default::default()

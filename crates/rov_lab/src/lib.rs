@@ -33,6 +33,7 @@ pub mod plots;
 pub mod sim;
 pub mod stream;
 pub mod terms;
+pub mod vehicle_check;
 pub mod verdict;
 
 pub use catalog::{EffectId, parse_effect_list};

@@ -29,7 +29,8 @@ use std::any::Any;
 use rov_dynamics::Vector6;
 use rov_dynamics::kinematics::{Attitude, QuatState, unpack_quat_state};
 use rov_dynamics::models::vehicle::{
-    CommandChannel, Commands, MAX_THRUSTERS, N_COMMANDS, Structure, VehicleDef, VehicleDynamics,
+    ChannelTable, CommandChannel, Commands, MAX_THRUSTERS, N_COMMANDS, Structure, VehicleDef,
+    VehicleDynamics,
 };
 use rov_dynamics::models::{
     Channel, Environment, InitialConditions, Model1, Model2, Model3, ModelOutput, ModelState,
@@ -262,6 +263,9 @@ impl Default for EffectValues {
 struct VehicleBase {
     def: VehicleDef,
     dynm: VehicleDynamics,
+    /// The command channels some thruster mixes ([`VehicleDef::channels`]), kept so the
+    /// simulators' inner loops do not rebuild the list.
+    chans: Vec<CommandChannel>,
 }
 
 #[derive(Debug, Clone)]
@@ -312,9 +316,9 @@ fn thrust_coefs(map: &ThrustMap) -> (f64, f64) {
 
 /// The Pro 4's command channels, in its thruster order.
 const PRO4_CHANNELS: [CommandChannel; 3] = [
-    CommandChannel::Port,
-    CommandChannel::Starboard,
-    CommandChannel::Vertical,
+    CommandChannel::PORT,
+    CommandChannel::STARBOARD,
+    CommandChannel::VERTICAL,
 ];
 
 impl LabModel {
@@ -476,7 +480,11 @@ impl LabModel {
         let name = def.name.clone();
         let mut m = Self::blank(
             BaseKind::Vehicle,
-            Base::Vehicle(Box::new(VehicleBase { def, dynm })),
+            Base::Vehicle(Box::new(VehicleBase {
+                chans: def.channels(),
+                def,
+                dynm,
+            })),
             text,
         );
         m.n_thr = n_thr;
@@ -729,14 +737,42 @@ impl LabModel {
     /// The command channels the model reads.
     pub fn command_channels(&self) -> Vec<CommandChannel> {
         match &self.base {
-            Base::Vehicle(v) => v.def.channels(),
+            Base::Vehicle(v) => v.chans.clone(),
             _ => PRO4_CHANNELS.to_vec(),
         }
     }
 
+    /// The model's channel table: the names of a vehicle file's free channels (none for
+    /// the Pro 4 models). Runs are re-indexed to it ([`crate::data::Run::align_channels`]).
+    pub fn channel_table(&self) -> &ChannelTable {
+        static BUILTIN: ChannelTable = ChannelTable::builtin();
+        match &self.base {
+            Base::Vehicle(v) => &v.def.channel_table,
+            _ => &BUILTIN,
+        }
+    }
+
+    /// [`LabModel::command_names`] owned (for callers that change the model meanwhile).
+    pub fn command_names_owned(&self) -> Vec<String> {
+        self.command_names()
+            .into_iter()
+            .map(str::to_string)
+            .collect()
+    }
+
     /// Names of the model's command signals (terms' `cmd_NAME`).
-    pub fn command_names(&self) -> Vec<&'static str> {
-        self.command_channels().iter().map(|c| c.name()).collect()
+    pub fn command_names(&self) -> Vec<&str> {
+        match &self.base {
+            Base::Vehicle(v) => v
+                .chans
+                .iter()
+                .map(|c| v.def.channel_table.name(*c).unwrap_or("?"))
+                .collect(),
+            _ => PRO4_CHANNELS
+                .iter()
+                .filter_map(|c| c.builtin_name())
+                .collect(),
+        }
     }
 
     /// The model's command signals (fractions of full command) from a command vector.
@@ -745,8 +781,8 @@ impl LabModel {
         let mut out = [0.0; N_COMMANDS];
         match &self.base {
             Base::Vehicle(v) => {
-                for (o, ch) in out.iter_mut().zip(v.def.channels()) {
-                    *o = c[ch.index()] * 0.01;
+                for (o, ch) in out.iter_mut().zip(&v.chans) {
+                    *o = c.get(ch.index()).copied().unwrap_or(0.0) * 0.01;
                 }
             }
             _ => {

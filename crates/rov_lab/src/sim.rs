@@ -489,6 +489,12 @@ impl Drop for MemoScope<'_> {
 
 /// Simulates a run, re-initialising at the given sorted sample indices (0 is implied).
 pub fn simulate_run(model: &LabModel, run: &Run, resets: &[usize]) -> Result<Prediction, LabError> {
+    if run.channels != *model.channel_table() {
+        // A run whose free channels the model names otherwise: read them by name.
+        let mut r = run.clone();
+        r.align_channels(model.channel_table());
+        return simulate_run(model, &r, resets);
+    }
     let ptr = run as *const Run;
     let key = MEMO.with(|m| {
         let mut m = m.borrow_mut();

@@ -35,7 +35,11 @@ fn shipped_vehicle_files_load_with_their_own_channels() {
         let text = vehicle_text(file);
         let def = VehicleDef::parse(&text, file).unwrap();
         assert_eq!(def.thrusters.len(), n_thrusters, "{file}");
-        let names: Vec<&str> = def.channels().iter().map(|c| c.name()).collect();
+        let names: Vec<&str> = def
+            .channels()
+            .iter()
+            .filter_map(|c| def.channel_table.name(*c))
+            .collect();
         assert_eq!(names, channels, "{file}");
         // Every number carries a source (the parser refuses a bare number; here: no empty
         // source strings either).
@@ -145,10 +149,10 @@ fn demand_steps_run(levels: &[f64], fill: Option<&rov_lab::sim::Prediction>) -> 
     let mut plan: Vec<(CommandChannel, f64, f64)> = Vec::new();
     for l in levels {
         for sign in [1.0, -1.0] {
-            plan.push((CommandChannel::Surge, sign * l, 6.0));
-            plan.push((CommandChannel::Yaw, sign * l, 3.0));
-            plan.push((CommandChannel::Heave, sign * l, 4.0));
-            plan.push((CommandChannel::Sway, sign * l, 5.0));
+            plan.push((CommandChannel::SURGE, sign * l, 6.0));
+            plan.push((CommandChannel::YAW, sign * l, 3.0));
+            plan.push((CommandChannel::HEAVE, sign * l, 4.0));
+            plan.push((CommandChannel::SWAY, sign * l, 5.0));
         }
     }
     let dt = 0.1;
@@ -203,12 +207,12 @@ fn demand_steps_run(levels: &[f64], fill: Option<&rov_lab::sim::Prediction>) -> 
     }
     let mut present = [false; N_COMMANDS];
     for c in [
-        CommandChannel::Surge,
-        CommandChannel::Sway,
-        CommandChannel::Heave,
-        CommandChannel::Roll,
-        CommandChannel::Pitch,
-        CommandChannel::Yaw,
+        CommandChannel::SURGE,
+        CommandChannel::SWAY,
+        CommandChannel::HEAVE,
+        CommandChannel::ROLL,
+        CommandChannel::PITCH,
+        CommandChannel::YAW,
     ] {
         present[c.index()] = true;
     }

@@ -19,6 +19,7 @@ mod cmd_sim_paper;
 mod cmd_sim_reference;
 mod cmd_sim_run;
 mod cmd_station;
+mod cmd_vehicle;
 mod config_file;
 mod foxglove_ws;
 
@@ -97,6 +98,9 @@ enum Command {
     Record(cmd_record::RecordArgs),
     /// Model lab: compare a model with measurements, diagnose and add missing effects.
     Lab(cmd_lab::LabArgs),
+    /// Vehicle files: a commented template for a frame (`new`), and a check of a file's
+    /// statics, mixing and signs, against a log too (`check`).
+    Vehicle(cmd_vehicle::VehicleArgs),
 }
 
 /// A model argument, parsed as every model name is ([`rov_types::ModelId`]).
@@ -116,6 +120,7 @@ fn main() -> std::process::ExitCode {
         Some(Command::Session(args)) => cmd_session::run(args),
         Some(Command::Record(args)) => cmd_record::run(args, cli.config.as_deref()),
         Some(Command::Lab(args)) => cmd_lab::run(args),
+        Some(Command::Vehicle(args)) => cmd_vehicle::run(args),
         None => cmd_station::run_station(
             cli.port,
             cli.video,

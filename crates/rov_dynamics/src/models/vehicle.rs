@@ -15,21 +15,28 @@
 //! [added_mass]      diagonal [6]
 //! [damping]         linear [6], quadratic [6]
 //! [options]         munk_moment = "zeroed" | "full"
+//! [hull]            size_m [3] (optional: length, width, height of a box centred on the CO)
 //! [commands]        saturation = "clamp" | "scale", gain (optional, default 1)
 //! [uncertainty]     thrust_gain, damping, added_mass (relative σ), cg_m, net_weight_n,
 //!                   thruster_position_m, command_gain (absolute σ; optional)
 //! [thrusters.NAME]  group, position_m [3], direction [3], curve = "quadratic" | "table",
 //!                   forward/reverse_linear_n, forward/reverse_quadratic_n (quadratic) or
 //!                   forward/reverse_table_n [11] (table, at |u| = 0, 0.1, …, 1),
-//!                   lag_s (optional), mix_CHANNEL (one factor per command channel used)
+//!                   lag_s (optional), mix_CHANNEL (one factor per command channel used;
+//!                   CHANNEL a built-in or a free name)
 //! ```
 //!
 //! # Commands, mixing, thrust
 //!
 //! A command vector holds one value per [`CommandChannel`] in percent (−100..100): the
-//! Pro 4's per-thruster commands (`port`, `starboard`, `vertical`, `lateral`) or body-axis
-//! demands (`surge`, `sway`, `heave`, `roll`, `pitch`, `yaw`, positive along the body
-//! axes: forward, starboard, down, starboard down, nose up, clockwise seen from above).
+//! built-in channels are the Pro 4's per-thruster commands (`port`, `starboard`,
+//! `vertical`, `lateral`) and body-axis demands (`surge`, `sway`, `heave`, `roll`, `pitch`,
+//! `yaw`, positive along the body axes: forward, starboard, down, starboard down, nose up,
+//! clockwise seen from above). Any other name is a **free channel**: a thruster's
+//! `mix_NAME` key declares it (`mix_thr1 = 1.0` drives that thruster directly from channel
+//! `thr1`, as a log of per-thruster ESC commands holds them); names are 1..=32 characters
+//! of `a-z`, `0-9`, `_` starting with a letter, at most [`MAX_FREE_CHANNELS`] per vehicle.
+//! The vehicle's [`ChannelTable`] gives the free channels their indices (sorted by name).
 //! Thruster i's command is u_i = g · Σ_c mix_{i,c} · command_c / 100 (g the optional
 //! `[commands] gain`, a pilot gain setting), saturated to ±1 either
 //! per thruster (`clamp`, ArduSub's behaviour) or by scaling all outputs by the largest
@@ -77,79 +84,222 @@ use crate::thrusters::{ThrustPair, ThrusterGeometry};
 /// Most thrusters a vehicle file may define.
 pub const MAX_THRUSTERS: usize = 8;
 
-/// Number of command channels ([`CommandChannel::ALL`]).
-pub const N_COMMANDS: usize = 10;
+/// Capacity of a command vector: the ten built-in channels ([`CommandChannel::BUILTIN`])
+/// and up to [`MAX_FREE_CHANNELS`] free-named ones ([`ChannelTable`]).
+pub const N_COMMANDS: usize = 18;
 
-/// Command values in percent, one per [`CommandChannel`] (index order).
+/// Built-in command channels (indices 0..10 of every command vector).
+pub const N_BUILTIN: usize = 10;
+
+/// Most free-named command channels a vehicle or run may have.
+pub const MAX_FREE_CHANNELS: usize = N_COMMANDS - N_BUILTIN;
+
+/// Longest free channel name.
+pub const MAX_CHANNEL_NAME: usize = 32;
+
+/// Command values in percent, one per command channel index: the built-in channels at
+/// their fixed indices, then the free-named ones in their [`ChannelTable`]'s order. A
+/// fixed-capacity array so the simulators' inner loops copy it without allocating.
 pub type Commands = [f64; N_COMMANDS];
 
 /// Points of a table thrust curve (|u| = 0, 0.1, …, 1).
 pub const TABLE_POINTS: usize = 11;
 
-/// A command channel of a vehicle (fixed vocabulary).
+/// A command channel: an index into a [`Commands`] vector. Indices below [`N_BUILTIN`]
+/// are the built-in names (fixed meaning everywhere); the others are named by the
+/// [`ChannelTable`] of the vehicle or run that holds them.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub enum CommandChannel {
-    /// Pro 4 port thruster, %.
-    Port,
-    /// Pro 4 starboard thruster, %.
-    Starboard,
-    /// Pro 4 vertical thruster, % (positive pushes down).
-    Vertical,
-    /// Pro 4 lateral (sway) thruster accessory, % (positive pushes to starboard).
-    Lateral,
-    /// Body-axis demand: forward.
-    Surge,
-    /// Body-axis demand: to starboard.
-    Sway,
-    /// Body-axis demand: down.
-    Heave,
-    /// Body-axis demand: roll, starboard side down.
-    Roll,
-    /// Body-axis demand: pitch, nose up.
-    Pitch,
-    /// Body-axis demand: yaw, clockwise seen from above.
-    Yaw,
-}
+pub struct CommandChannel(u8);
 
 impl CommandChannel {
-    /// Every channel, in index order.
-    pub const ALL: [CommandChannel; N_COMMANDS] = [
-        CommandChannel::Port,
-        CommandChannel::Starboard,
-        CommandChannel::Vertical,
-        CommandChannel::Lateral,
-        CommandChannel::Surge,
-        CommandChannel::Sway,
-        CommandChannel::Heave,
-        CommandChannel::Roll,
-        CommandChannel::Pitch,
-        CommandChannel::Yaw,
+    /// Pro 4 port thruster, %.
+    pub const PORT: Self = Self(0);
+    /// Pro 4 starboard thruster, %.
+    pub const STARBOARD: Self = Self(1);
+    /// Pro 4 vertical thruster, % (positive pushes down).
+    pub const VERTICAL: Self = Self(2);
+    /// Pro 4 lateral (sway) thruster accessory, % (positive pushes to starboard).
+    pub const LATERAL: Self = Self(3);
+    /// Body-axis demand: forward.
+    pub const SURGE: Self = Self(4);
+    /// Body-axis demand: to starboard.
+    pub const SWAY: Self = Self(5);
+    /// Body-axis demand: down.
+    pub const HEAVE: Self = Self(6);
+    /// Body-axis demand: roll, starboard side down.
+    pub const ROLL: Self = Self(7);
+    /// Body-axis demand: pitch, nose up.
+    pub const PITCH: Self = Self(8);
+    /// Body-axis demand: yaw, clockwise seen from above.
+    pub const YAW: Self = Self(9);
+
+    /// The built-in channels, in index order.
+    pub const BUILTIN: [CommandChannel; N_BUILTIN] = [
+        Self::PORT,
+        Self::STARBOARD,
+        Self::VERTICAL,
+        Self::LATERAL,
+        Self::SURGE,
+        Self::SWAY,
+        Self::HEAVE,
+        Self::ROLL,
+        Self::PITCH,
+        Self::YAW,
     ];
 
+    const BUILTIN_NAMES: [&'static str; N_BUILTIN] = [
+        "port",
+        "starboard",
+        "vertical",
+        "lateral",
+        "surge",
+        "sway",
+        "heave",
+        "roll",
+        "pitch",
+        "yaw",
+    ];
+
+    /// The channel at a command-vector index (`None` beyond the capacity).
+    pub fn from_index(i: usize) -> Option<Self> {
+        (i < N_COMMANDS).then_some(Self(i as u8))
+    }
+
     /// Index in a [`Commands`] vector.
+    #[inline]
     pub fn index(self) -> usize {
-        self as usize
+        self.0 as usize
     }
 
-    /// Name used in files and reports.
-    pub fn name(self) -> &'static str {
-        match self {
-            CommandChannel::Port => "port",
-            CommandChannel::Starboard => "starboard",
-            CommandChannel::Vertical => "vertical",
-            CommandChannel::Lateral => "lateral",
-            CommandChannel::Surge => "surge",
-            CommandChannel::Sway => "sway",
-            CommandChannel::Heave => "heave",
-            CommandChannel::Roll => "roll",
-            CommandChannel::Pitch => "pitch",
-            CommandChannel::Yaw => "yaw",
+    /// Whether this is one of the built-in channels.
+    pub fn is_builtin(self) -> bool {
+        self.index() < N_BUILTIN
+    }
+
+    /// Name of a built-in channel (`None` for a free-named one: ask its [`ChannelTable`]).
+    pub fn builtin_name(self) -> Option<&'static str> {
+        Self::BUILTIN_NAMES.get(self.index()).copied()
+    }
+
+    /// A built-in channel by name.
+    pub fn parse_builtin(s: &str) -> Option<Self> {
+        Self::BUILTIN_NAMES
+            .iter()
+            .position(|n| *n == s)
+            .and_then(Self::from_index)
+    }
+}
+
+/// Whether `s` can name a free command channel: 1..=32 characters of `a-z`, `0-9` and `_`,
+/// starting with a letter.
+pub fn valid_channel_name(s: &str) -> bool {
+    !s.is_empty()
+        && s.len() <= MAX_CHANNEL_NAME
+        && s.starts_with(|c: char| c.is_ascii_lowercase())
+        && s.chars()
+            .all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '_')
+}
+
+/// Names of the free command channels of a vehicle or run: free channel `k` has index
+/// [`N_BUILTIN`]` + k` in its [`Commands`] vectors. Built-in names always map to their
+/// fixed indices. A run and a model meet on names: [`ChannelTable::remap_from`] gives
+/// the index map that re-indexes one's commands to the other's table.
+#[derive(Debug, Clone, Default, PartialEq, Eq, Hash)]
+pub struct ChannelTable {
+    free: Vec<String>,
+}
+
+/// Why a channel name was refused.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum ChannelError {
+    /// Not a valid name.
+    #[error(
+        "command channel name {0:?} is not 1..=32 characters of a-z, 0-9, _ starting with a letter"
+    )]
+    BadName(String),
+    /// More free channels than a command vector holds.
+    #[error(
+        "command channel {0:?} is one too many: at most {MAX_FREE_CHANNELS} channels besides the built-in ones (port, starboard, vertical, lateral, surge, sway, heave, roll, pitch, yaw)"
+    )]
+    TooMany(String),
+}
+
+impl ChannelTable {
+    /// No free channels (the built-in ones only).
+    pub const fn builtin() -> Self {
+        Self { free: Vec::new() }
+    }
+
+    /// A table of the given names (built-in names keep their indices and are not added;
+    /// duplicates are merged).
+    pub fn from_names<'a, I: IntoIterator<Item = &'a str>>(names: I) -> Result<Self, ChannelError> {
+        let mut t = Self::default();
+        for n in names {
+            t.intern(n)?;
         }
+        Ok(t)
     }
 
-    /// Parses a name.
-    pub fn parse(s: &str) -> Option<Self> {
-        Self::ALL.iter().copied().find(|c| c.name() == s)
+    /// The channel of a name, adding a free one if new.
+    pub fn intern(&mut self, name: &str) -> Result<CommandChannel, ChannelError> {
+        if let Some(c) = self.index_of(name) {
+            return Ok(c);
+        }
+        if !valid_channel_name(name) {
+            return Err(ChannelError::BadName(name.to_string()));
+        }
+        if self.free.len() >= MAX_FREE_CHANNELS {
+            return Err(ChannelError::TooMany(name.to_string()));
+        }
+        self.free.push(name.to_string());
+        CommandChannel::from_index(N_BUILTIN + self.free.len() - 1)
+            .ok_or_else(|| ChannelError::TooMany(name.to_string()))
+    }
+
+    /// The channel of a name, if the table (or the built-in set) has it.
+    pub fn index_of(&self, name: &str) -> Option<CommandChannel> {
+        CommandChannel::parse_builtin(name).or_else(|| {
+            self.free
+                .iter()
+                .position(|n| n == name)
+                .and_then(|k| CommandChannel::from_index(N_BUILTIN + k))
+        })
+    }
+
+    /// The name of a channel (`None` for an index this table does not name).
+    pub fn name(&self, c: CommandChannel) -> Option<&str> {
+        c.builtin_name().or_else(|| {
+            self.free
+                .get(c.index().wrapping_sub(N_BUILTIN))
+                .map(String::as_str)
+        })
+    }
+
+    /// The free names, in index order.
+    pub fn free_names(&self) -> &[String] {
+        &self.free
+    }
+
+    /// Every channel the table names: the built-in ones, then the free ones.
+    pub fn all(&self) -> Vec<CommandChannel> {
+        (0..N_BUILTIN + self.free.len())
+            .filter_map(CommandChannel::from_index)
+            .collect()
+    }
+
+    /// For each index of this table, the index in `from` holding the same name (the map
+    /// that re-indexes commands written for `from` to this table); `None` where `from`
+    /// lacks the name. Built-in indices map to themselves.
+    pub fn remap_from(&self, from: &ChannelTable) -> [Option<usize>; N_COMMANDS] {
+        let mut out = [None; N_COMMANDS];
+        for (i, o) in out.iter_mut().enumerate() {
+            if i < N_BUILTIN {
+                *o = Some(i);
+            } else if let Some(n) = self.free.get(i - N_BUILTIN) {
+                *o = from.index_of(n).map(CommandChannel::index);
+            }
+        }
+        out
     }
 }
 
@@ -292,7 +442,8 @@ pub struct ThrusterDef {
     pub reverse: ThrustCurve,
     /// First-order lag of the thruster's command, s (0 = none).
     pub lag_s: f64,
-    /// Mixing factors from each command channel (index order).
+    /// Mixing factors from each command channel (index order of the vehicle's
+    /// [`ChannelTable`]).
     pub mix: Commands,
 }
 
@@ -343,6 +494,11 @@ pub struct VehicleDef {
     pub command_gain: f64,
     /// Documented uncertainties.
     pub uncertainty: Uncertainty,
+    /// Names of the free command channels the thrusters' `mix_NAME` keys declare (sorted).
+    pub channel_table: ChannelTable,
+    /// Outer size of the hull (length, width, height), m, as a box centred on the CO
+    /// (`[hull] size_m`, optional; `vehicle check` tests the CG and thrusters against it).
+    pub hull_size_m: Option<[f64; 3]>,
 }
 
 /// Table names of the thrusters in a vehicle file, in file order.
@@ -375,6 +531,55 @@ fn thruster_names(text: &str, label: &str) -> Result<Vec<String>, ConfigError> {
         });
     }
     Ok(t.keys().cloned().collect())
+}
+
+/// The command channels the thrusters' `mix_NAME` keys declare: the built-in names keep
+/// their indices, the free names follow in sorted order (so two files with the same
+/// channels index them alike).
+fn mix_channels(text: &str, label: &str) -> Result<ChannelTable, ConfigError> {
+    let root: toml::Table = text
+        .parse()
+        .map_err(|e: toml::de::Error| ConfigError::Syntax {
+            file: label.to_string(),
+            message: e.to_string().trim().to_string(),
+        })?;
+    let mut names = std::collections::BTreeSet::new();
+    if let Some(t) = root.get("thrusters").and_then(|t| t.as_table()) {
+        for (tn, thr) in t {
+            let Some(thr) = thr.as_table() else { continue };
+            for k in thr.keys() {
+                if let Some(ch) = k.strip_prefix("mix_") {
+                    if !valid_channel_name(ch) {
+                        return Err(ConfigError::OutOfRange {
+                            file: label.to_string(),
+                            key: format!("thrusters.{tn}.{k}"),
+                            value: ch.to_string(),
+                            allowed: "a channel name of 1..=32 characters a-z, 0-9, _ \
+                                      starting with a letter"
+                                .into(),
+                        });
+                    }
+                    names.insert(ch.to_string());
+                }
+            }
+        }
+    }
+    let mut table = ChannelTable::builtin();
+    for n in &names {
+        table.intern(n).map_err(|e| ConfigError::OutOfRange {
+            file: label.to_string(),
+            key: format!("thrusters.*.mix_{n}"),
+            value: format!(
+                "{} channels besides the built-in ones",
+                names
+                    .iter()
+                    .filter(|n| CommandChannel::parse_builtin(n).is_none())
+                    .count()
+            ),
+            allowed: e.to_string(),
+        })?;
+    }
+    Ok(table)
 }
 
 /// Allowed range of a curve point or coefficient, N.
@@ -459,6 +664,12 @@ impl VehicleDef {
             command_gain: pf.f64_or("uncertainty.command_gain", 0.0..=10.0, 0.0)?,
         };
         let group_names: Vec<&str> = ThrusterGroup::ALL.iter().map(|g| g.name()).collect();
+        let channel_table = mix_channels(text, label)?;
+        let hull_size_m = if pf.has("hull.size_m") {
+            Some(pf.array::<3>("hull.size_m", 0.01..=20.0)?)
+        } else {
+            None
+        };
         let mut thrusters = Vec::with_capacity(names.len());
         for n in &names {
             let prefix = format!("thrusters.{n}");
@@ -470,18 +681,23 @@ impl VehicleDef {
                 .unwrap_or(ThrusterGroup::Horizontal);
             let kind = pf.choice(&format!("{prefix}.curve"), &["quadratic", "table"], None)?;
             let mut mix = [0.0; N_COMMANDS];
-            for c in CommandChannel::ALL {
-                mix[c.index()] =
-                    pf.f64_or(&format!("{prefix}.mix_{}", c.name()), -10.0..=10.0, 0.0)?;
+            for c in channel_table.all() {
+                let Some(cn) = channel_table.name(c) else {
+                    continue;
+                };
+                if let Some(m) = mix.get_mut(c.index()) {
+                    *m = pf.f64_or(&format!("{prefix}.mix_{cn}"), -10.0..=10.0, 0.0)?;
+                }
             }
             if mix.iter().all(|m| *m == 0.0) {
                 return Err(ConfigError::Missing {
                     file: label.to_string(),
                     key: format!("{prefix}.mix_*"),
-                    allowed: format!(
-                        "at least one mixing factor mix_CHANNEL, CHANNEL one of {}",
-                        CommandChannel::ALL.map(|c| c.name()).join(", ")
-                    ),
+                    allowed: "at least one non-zero mixing factor mix_CHANNEL (CHANNEL a built-in \
+                              channel: port, starboard, vertical, lateral, surge, sway, heave, \
+                              roll, pitch, yaw; or any name of a-z, 0-9, _ that the vehicle's \
+                              log carries)"
+                        .into(),
                 });
             }
             thrusters.push(ThrusterDef {
@@ -523,6 +739,8 @@ impl VehicleDef {
             saturation,
             command_gain,
             uncertainty,
+            channel_table,
+            hull_size_m,
         };
         VehicleDynamics::new(&def).map_err(|e| ConfigError::Inconsistent {
             file: label.to_string(),
@@ -533,9 +751,9 @@ impl VehicleDef {
 
     /// The command channels some thruster mixes (index order).
     pub fn channels(&self) -> Vec<CommandChannel> {
-        CommandChannel::ALL
-            .iter()
-            .copied()
+        self.channel_table
+            .all()
+            .into_iter()
             .filter(|c| self.thrusters.iter().any(|t| t.mix[c.index()] != 0.0))
             .collect()
     }
@@ -771,11 +989,11 @@ mix_yaw = { value = -1.0, unit = "-", source = "test" }
         assert_eq!(d.thrusters.len(), 2);
         assert_eq!(
             d.channels(),
-            vec![CommandChannel::Surge, CommandChannel::Yaw]
+            vec![CommandChannel::SURGE, CommandChannel::YAW]
         );
         let mut cmd = [0.0; N_COMMANDS];
-        cmd[CommandChannel::Surge.index()] = 50.0;
-        cmd[CommandChannel::Yaw.index()] = 80.0;
+        cmd[CommandChannel::SURGE.index()] = 50.0;
+        cmd[CommandChannel::YAW.index()] = 80.0;
         let u = d.thruster_commands(&cmd);
         // left: 0.5 + 0.8 = 1.3 → clamped to 1; right: 0.5 − 0.8 = −0.3.
         assert!(
@@ -820,10 +1038,66 @@ mix_yaw = { value = -1.0, unit = "-", source = "test" }
         .unwrap_err()
         .to_string();
         assert!(e.contains("forward_table_n"), "{e}");
-        let e = VehicleDef::parse(&SMALL.replace("mix_surge = { value = 1.0, unit = \"-\", source = \"test\" }\nmix_yaw = { value = -1.0", "mix_bogus = { value = 1.0, unit = \"-\", source = \"test\" }\nmix_yaw = { value = -1.0"), "x.toml")
-            .unwrap_err()
-            .to_string();
-        assert!(e.contains("mix_bogus"), "{e}");
+        let e = VehicleDef::parse(
+            &SMALL.replace("mix_yaw = { value = -1.0", "mix_Yaw-2 = { value = -1.0"),
+            "x.toml",
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("mix_Yaw-2") && e.contains("a-z"), "{e}");
+        let seven: String = (1..=9)
+            .map(|k| format!("mix_thr{k} = {{ value = 1.0, unit = \"-\", source = \"test\" }}\n"))
+            .collect();
+        let e = VehicleDef::parse(
+            &SMALL.replace(
+                "[thrusters.right]\n",
+                &format!("[thrusters.right]\n{seven}"),
+            ),
+            "x.toml",
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("mix_thr9") && e.contains("at most 8"), "{e}");
+    }
+
+    #[test]
+    fn free_channel_names_drive_thrusters_directly() {
+        // The right thruster driven from its own channel `thr_b`, the left from `thr_a`
+        // and the built-in surge demand together.
+        let text = SMALL
+            .replace(
+                "mix_surge = { value = 1.0, unit = \"-\", source = \"test\" }\nmix_yaw = { value = 1.0",
+                "mix_thr_a = { value = 1.0, unit = \"-\", source = \"test\" }\nmix_surge = { value = 0.5",
+            )
+            .replace(
+                "mix_surge = { value = 1.0, unit = \"-\", source = \"test\" }\nmix_yaw = { value = -1.0",
+                "mix_thr_b = { value = -1.0",
+            );
+        let d = VehicleDef::parse(&text, "free.toml").unwrap();
+        let t = &d.channel_table;
+        let (a, b) = (t.index_of("thr_a").unwrap(), t.index_of("thr_b").unwrap());
+        assert_eq!((a.index(), b.index()), (N_BUILTIN, N_BUILTIN + 1));
+        assert_eq!(t.name(b), Some("thr_b"));
+        assert_eq!(d.channels(), vec![CommandChannel::SURGE, a, b]);
+        let mut cmd = [0.0; N_COMMANDS];
+        cmd[a.index()] = 40.0;
+        cmd[CommandChannel::SURGE.index()] = 20.0;
+        cmd[b.index()] = 30.0;
+        let u = d.thruster_commands(&cmd);
+        assert!(
+            (u[0] - 0.5).abs() < 1e-12 && (u[1] + 0.3).abs() < 1e-12,
+            "{u:?}"
+        );
+        // A run that names the channels in another order is re-indexed by name.
+        let run_table = ChannelTable::from_names(["thr_b", "extra", "thr_a"]).unwrap();
+        let map = t.remap_from(&run_table);
+        assert_eq!(map[a.index()], Some(N_BUILTIN + 2));
+        assert_eq!(map[b.index()], Some(N_BUILTIN));
+        assert_eq!(
+            map[CommandChannel::YAW.index()],
+            Some(CommandChannel::YAW.index())
+        );
+        assert_eq!(map[N_BUILTIN + 2], None);
     }
 
     #[test]

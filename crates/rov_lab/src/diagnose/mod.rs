@@ -182,6 +182,11 @@ pub fn diagnose(
     val: &[Run],
     opts: &DiagnoseOptions,
 ) -> Result<Diagnosis, LabError> {
+    let (train, val) = (
+        crate::data::aligned(train, base.channel_table()),
+        crate::data::aligned(val, base.channel_table()),
+    );
+    let (train, val) = (&train[..], &val[..]);
     if train.is_empty() || val.is_empty() {
         return Err(LabError::Data {
             run: "(none)".into(),
@@ -424,7 +429,8 @@ pub fn diagnose(
     // Library terms whose residual force is a catalog effect's signature, per (DOF,
     // effect), in the order found: one note each (`catalog_like_note`).
     let mut catalog_like: Vec<((usize, &str), Vec<String>)> = Vec::new();
-    let names = g.current.command_names();
+    let names_owned = g.current.command_names_owned();
+    let names: Vec<&str> = names_owned.iter().map(String::as_str).collect();
     // The last accepted catalog effect against the library's terms of its own DOFs, as a
     // replacement, when it leaves a home channel inconsistent (`replacement`).
     let mut replaced = false;
@@ -1051,7 +1057,8 @@ pub fn add_to_model(
         let Subject::Term(t) = c.subject else {
             continue;
         };
-        let names = g.current.command_names();
+        let names_owned = g.current.command_names_owned();
+        let names: Vec<&str> = names_owned.iter().map(String::as_str).collect();
         let finding = term_card(&c, &j, &g.current, 0, None, false);
         g.accept(&c)?;
         steps.push(AddedStep {
