@@ -17,6 +17,7 @@ pub mod analysis;
 pub mod bluerov;
 pub mod calibrate;
 pub mod catalog;
+pub mod cross_validate;
 pub mod data;
 pub mod diagnose;
 pub mod engine;

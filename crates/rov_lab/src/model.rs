@@ -29,8 +29,7 @@ use std::any::Any;
 use rov_dynamics::Vector6;
 use rov_dynamics::kinematics::{Attitude, QuatState, unpack_quat_state};
 use rov_dynamics::models::vehicle::{
-    ChannelTable, CommandChannel, Commands, MAX_THRUSTERS, N_COMMANDS, Structure, VehicleDef,
-    VehicleDynamics,
+    ChannelTable, CommandChannel, Commands, MAX_THRUSTERS, Structure, VehicleDef, VehicleDynamics,
 };
 use rov_dynamics::models::{
     Channel, Environment, InitialConditions, Model1, Model2, Model3, ModelOutput, ModelState,
@@ -50,6 +49,16 @@ pub const TETHER_ATTACH_X_M: f64 = -0.2;
 
 /// Most filtered-command signals a model's terms may use.
 pub const MAX_FILTERS: usize = 4;
+
+/// Most command signals a model hands its terms and the verdict's input tests
+/// ([`LabModel::command_signals`]): the first ten of its channels (a vehicle file that
+/// mixes more channels drives its thrusters from all of them; only the terms and the
+/// input-correlation tests see the first ten). Sized as the ten built-in channels so the
+/// simulators' per-sample copies stay as small as before free channel names.
+pub const MAX_SIGNALS: usize = rov_dynamics::models::vehicle::N_BUILTIN;
+
+/// A model's command signals (fractions of full command, in its channel order).
+pub type Signals = [f64; MAX_SIGNALS];
 
 /// Which base model.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize)]
@@ -760,12 +769,13 @@ impl LabModel {
             .collect()
     }
 
-    /// Names of the model's command signals (terms' `cmd_NAME`).
+    /// Names of the model's command signals (terms' `cmd_NAME`; at most [`MAX_SIGNALS`]).
     pub fn command_names(&self) -> Vec<&str> {
         match &self.base {
             Base::Vehicle(v) => v
                 .chans
                 .iter()
+                .take(MAX_SIGNALS)
                 .map(|c| v.def.channel_table.name(*c).unwrap_or("?"))
                 .collect(),
             _ => PRO4_CHANNELS
@@ -777,8 +787,8 @@ impl LabModel {
 
     /// The model's command signals (fractions of full command) from a command vector.
     #[inline]
-    pub fn command_signals(&self, c: &Commands) -> [f64; N_COMMANDS] {
-        let mut out = [0.0; N_COMMANDS];
+    pub fn command_signals(&self, c: &Commands) -> Signals {
+        let mut out = [0.0; MAX_SIGNALS];
         match &self.base {
             Base::Vehicle(v) => {
                 for (o, ch) in out.iter_mut().zip(&v.chans) {
@@ -1721,7 +1731,7 @@ impl VehicleModel for LabModel {
         }
         let f = self.thrusts(&targets);
         let signals = self.command_signals(&c);
-        let mut filt = [0.0; 2 * N_COMMANDS];
+        let mut filt = [0.0; 2 * MAX_SIGNALS];
         for (k, (ci, fk)) in self.filters.iter().enumerate() {
             let slot = *ci as usize * FILTER_TAUS_S.len() + *fk as usize;
             if let (Some(s), Some(x)) = (filt.get_mut(slot), state.extra.get(nl + k)) {

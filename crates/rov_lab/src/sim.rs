@@ -263,7 +263,7 @@ pub struct SampleState {
     /// The lagged thruster commands at the sample, %.
     pub lagged: PerThruster,
     /// The filtered command signals of the terms at the sample (`filt[cmd * 2 + k]`).
-    pub filt: [f64; 2 * rov_dynamics::models::vehicle::N_COMMANDS],
+    pub filt: [f64; 2 * crate::model::MAX_SIGNALS],
 }
 
 /// Simulates a run, re-initialising at the given sorted sample indices (0 is implied),
@@ -295,7 +295,7 @@ fn simulate_core(
     let filters = model.filters();
     let sig0 = model.command_signals(&c0);
     let mut filt_state = [0.0; MAX_FILTERS];
-    let mut filt = [0.0; 2 * rov_dynamics::models::vehicle::N_COMMANDS];
+    let mut filt = [0.0; 2 * crate::model::MAX_SIGNALS];
     for (fs, (ci, fk)) in filt_state.iter_mut().zip(filters) {
         *fs = sig0.get(*ci as usize).copied().unwrap_or(0.0);
         if let Some(slot) = filt.get_mut(*ci as usize * FILTER_TAUS_S.len() + *fk as usize) {
@@ -330,9 +330,9 @@ fn simulate_core(
         let dt = run.t[k + 1] - run.t[k];
         let nsub = ((dt / DT_MAX_S) - 1e-9).ceil().max(1.0) as usize;
         let h = dt / nsub as f64;
-        let u = run.inputs[k];
-        let target = model.thruster_targets(&u);
-        let signals = model.command_signals(&u);
+        let u = run.inputs.get(k).unwrap_or(&c0);
+        let target = model.thruster_targets(u);
+        let signals = model.command_signals(u);
         // The decay factors depend on the sub-step only; at a steady sample rate they are
         // the same every step, so they are computed again only when h changes (the same
         // expressions on the same h: the numbers do not change).

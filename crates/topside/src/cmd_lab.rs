@@ -86,6 +86,9 @@ enum LabCommand {
     Effects(ListArgs),
     /// List, for each base model, the catalog effects it already contains.
     Models(ListArgs),
+    /// Per-session and leave-one-session-out held-out fit (free run and multiple
+    /// shooting) per channel, before and after calibration.
+    Cv(crate::cmd_lab_cv::CvArgs),
 }
 
 /// `topside lab compare`.
@@ -682,5 +685,6 @@ pub fn run(args: LabArgs) -> anyhow::Result<ExitCode> {
         LabCommand::Add(a) => run_add(a),
         LabCommand::Effects(a) => run_effects(a),
         LabCommand::Models(a) => run_models(a),
+        LabCommand::Cv(a) => crate::cmd_lab_cv::run(a),
     }
 }

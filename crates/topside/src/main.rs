@@ -10,6 +10,7 @@ mod cmd_export_video;
 mod cmd_hold;
 mod cmd_import;
 mod cmd_lab;
+mod cmd_lab_cv;
 mod cmd_proto;
 mod cmd_record;
 mod cmd_replay;

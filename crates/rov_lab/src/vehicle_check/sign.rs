@@ -336,7 +336,7 @@ pub fn sign_check(def: &VehicleDef, report: &VehicleReport, runs: &[Run]) -> Vec
                 dof: DOF_NAMES[dof].to_string(),
                 signal: src.to_string(),
                 correlation: rho,
-                lag_s: j as f64 * LAG_STEP_S,
+                lag_s: (j as f64 * LAG_STEP_S * 1000.0).round() / 1000.0,
                 expected_tau: row.tau_plus_100[dof],
             });
         }

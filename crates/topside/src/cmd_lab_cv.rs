@@ -1,0 +1,81 @@
+//! `topside lab cv --model M --data F [--data G ...] [--json]`: per-session and
+//! leave-one-session-out held-out fit of a model on its own command channels, free run and
+//! multiple shooting, before and after calibration ([`rov_lab::cross_validate`]).
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use clap::Args;
+use rov_lab::cross_validate::leave_one_session_out;
+use rov_lab::lm::LmOptions;
+
+/// `topside lab cv`.
+#[derive(Debug, Args)]
+pub struct CvArgs {
+    /// The model: model1, model2, model3, a vehicle file or a saved extended model.
+    #[arg(long)]
+    model: String,
+    /// Logs, one session each (at least two; repeatable, or several after one --data).
+    #[arg(long, required = true, num_args = 1..)]
+    data: Vec<PathBuf>,
+    /// JSON on stdout.
+    #[arg(long)]
+    json: bool,
+}
+
+fn pct(x: Option<f64>) -> String {
+    x.map_or_else(|| "     -".into(), |v| format!("{v:6.1}"))
+}
+
+/// Runs `topside lab cv`.
+pub fn run(a: CvArgs) -> anyhow::Result<ExitCode> {
+    let model = crate::cmd_lab::load_model_arg(&a.model)?;
+    let mut runs = Vec::new();
+    for p in &a.data {
+        runs.extend(crate::cmd_lab::load_log(p)?);
+    }
+    let cv = leave_one_session_out(
+        &model,
+        &runs,
+        &LmOptions {
+            threads: 2,
+            ..Default::default()
+        },
+    )?;
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&cv)?);
+        return Ok(ExitCode::SUCCESS);
+    }
+    println!(
+        "{}: leave-one-session-out over {} sessions (fit %: multiple shooting / free run; before = as given, after = calibrated on the other sessions)",
+        a.model,
+        cv.sessions.len()
+    );
+    for s in &cv.sessions {
+        println!("  held out {} ({} run(s))", s.session, s.runs);
+        for (ch, b) in &s.before {
+            let af = s.after.get(ch);
+            println!(
+                "    {:<10} shooting {} -> {}   free run {} -> {}",
+                ch,
+                pct(b.fit_pct),
+                pct(af.and_then(|c| c.fit_pct)),
+                pct(b.fit_pct_free_run),
+                pct(af.and_then(|c| c.fit_pct_free_run)),
+            );
+        }
+    }
+    println!("  median over sessions:");
+    for (ch, m) in &cv.median {
+        println!(
+            "    {:<10} shooting {} -> {}   free run {} -> {}   ({} sessions)",
+            ch,
+            pct(m.shooting_before),
+            pct(m.shooting_after),
+            pct(m.free_run_before),
+            pct(m.free_run_after),
+            m.sessions
+        );
+    }
+    Ok(ExitCode::SUCCESS)
+}
