@@ -418,7 +418,8 @@ impl Run {
 
     /// Runs of a series whose commands come as named series (channel name → percent on
     /// the series' rows, one value per row; NaN holds the previous value, 0 before the
-    /// first): the constructor for any log whose command channels a map names (built-in
+    /// first; values outside −100..100 % are clamped and counted in the notes): the
+    /// constructor for any log whose command channels a map names (built-in
     /// names keep their meaning; any other valid name becomes a free channel of the runs'
     /// [`ChannelTable`], in the order given). The runs get the same real-log treatment as a
     /// measurement CSV ([`crate::ingest::series_runs_with`]: gaps split them, spikes are
@@ -436,6 +437,7 @@ impl Run {
         let mut present = [false; N_COMMANDS];
         let mut inputs: Vec<Commands> = vec![[0.0; N_COMMANDS]; n];
         let mut series = series.clone();
+        let mut notes = Vec::new();
         for (name, values) in commands {
             let c = table.intern(name).map_err(|e| LabError::Data {
                 run: label.into(),
@@ -453,9 +455,11 @@ impl Run {
             let i = c.index();
             present[i] = true;
             let mut held = 0.0;
+            let mut clamped = 0usize;
             for (row, (v, inp)) in series.rows.iter_mut().zip(values.iter().zip(&mut inputs)) {
                 if v.is_finite() {
                     held = v.clamp(-100.0, 100.0);
+                    clamped += usize::from(held != *v);
                 }
                 inp[i] = held;
                 match c {
@@ -464,6 +468,11 @@ impl Run {
                     CommandChannel::VERTICAL => row.vertical_pct = held,
                     _ => {}
                 }
+            }
+            if clamped > 0 {
+                notes.push(format!(
+                    "{clamped} value(s) of command channel {name} outside -100..100 % clamped"
+                ));
             }
         }
         // The Pro 4 view's channels not named keep the series' own columns.
@@ -487,6 +496,7 @@ impl Run {
         for r in &mut runs {
             r.channels = table.clone();
             r.treatment.closed_loop = crate::ingest::feedback_links(r);
+            r.treatment.notes.extend(notes.iter().cloned());
         }
         Ok(runs)
     }

@@ -278,3 +278,43 @@ fn free_channels_are_read_by_name_and_survive_saving() {
     let c = simulate_run(&back, &reversed, &resets).unwrap();
     assert_eq!(c.channel(Channel::Heading).unwrap(), ya);
 }
+
+/// The named-command constructor: a name that is not a channel name is refused, a series
+/// of the wrong length is refused, values beyond ±100 % are clamped and counted, NaN holds.
+#[test]
+fn named_commands_are_checked_clamped_and_held() {
+    let series = MeasurementSeries {
+        rows: (0..40)
+            .map(|k| MeasurementRow {
+                time_s: k as f64 * 0.1,
+                depth_m: 5.0,
+                heading_deg: 40.0,
+                ..Default::default()
+            })
+            .collect(),
+        present: [true; 8],
+        ..Default::default()
+    };
+    let mut v: Vec<f64> = (0..40).map(|k| f64::from(k) * 5.0).collect();
+    v[3] = f64::NAN;
+    let runs = Run::runs_from_named_commands(&series, "x", &[("esc_1".into(), v)], None).unwrap();
+    let r = &runs[0];
+    let c = r.channels.index_of("esc_1").unwrap();
+    assert!(r.input_present[c.index()]);
+    assert_eq!(r.inputs[3][c.index()], 10.0);
+    assert_eq!(r.inputs[39][c.index()], 100.0);
+    assert!(
+        r.treatment
+            .notes
+            .iter()
+            .any(|n| n.contains("19 value(s)") && n.contains("esc_1")),
+        "{:?}",
+        r.treatment.notes
+    );
+    let e = Run::runs_from_named_commands(&series, "x", &[("Esc 1".into(), vec![0.0; 40])], None)
+        .unwrap_err();
+    assert!(e.to_string().contains("Esc 1"), "{e}");
+    let e = Run::runs_from_named_commands(&series, "x", &[("esc".into(), vec![0.0; 3])], None)
+        .unwrap_err();
+    assert!(e.to_string().contains("3 values for 40 rows"), "{e}");
+}
