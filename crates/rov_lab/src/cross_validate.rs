@@ -58,6 +58,8 @@ pub struct CrossValidation {
     pub sessions: Vec<SessionFit>,
     /// Medians per channel.
     pub median: BTreeMap<String, MedianFit>,
+    /// The multiple-shooting window, s.
+    pub window_s: f64,
 }
 
 fn median(mut v: Vec<f64>) -> Option<f64> {
@@ -90,11 +92,13 @@ pub fn sessions_of(runs: &[Run]) -> Vec<(String, Vec<Run>)> {
     out
 }
 
-/// Leave-one-session-out cross-validation (at least two sessions).
+/// Leave-one-session-out cross-validation (at least two sessions), multiple shooting in
+/// windows of `window_s` (the lab's own views: [`crate::calibrate::SHOOTING_WINDOW_S`]).
 pub fn leave_one_session_out(
     model: &LabModel,
     runs: &[Run],
     opts: &LmOptions,
+    window_s: f64,
 ) -> Result<CrossValidation, LabError> {
     let runs = crate::data::aligned(runs, model.channel_table());
     let groups = sessions_of(&runs);
@@ -115,9 +119,11 @@ pub fn leave_one_session_out(
             .filter(|(j, _)| *j != i)
             .flat_map(|(_, (_, r))| r.iter().cloned())
             .collect();
-        let before = summarize(&crate::evaluate::evaluate(model, held)?);
+        let before = summarize(&crate::evaluate::evaluate_window(model, held, window_s)?);
         let cal = calibrate(model, &train, opts)?;
-        let after = summarize(&crate::evaluate::evaluate(&cal.model, held)?);
+        let after = summarize(&crate::evaluate::evaluate_window(
+            &cal.model, held, window_s,
+        )?);
         sessions.push(SessionFit {
             session: name.clone(),
             runs: held.len(),
@@ -157,6 +163,7 @@ pub fn leave_one_session_out(
     Ok(CrossValidation {
         sessions,
         median: median_map,
+        window_s,
     })
 }
 

@@ -58,17 +58,23 @@ impl ChannelKey {
 
 /// Evaluates a model on runs in both views.
 pub fn evaluate(model: &LabModel, runs: &[Run]) -> Result<Evaluation, LabError> {
+    evaluate_window(model, runs, SHOOTING_WINDOW_S)
+}
+
+/// [`evaluate`] with multiple-shooting windows of `window_s` (the lab's own views use
+/// [`SHOOTING_WINDOW_S`]).
+pub fn evaluate_window(
+    model: &LabModel,
+    runs: &[Run],
+    window_s: f64,
+) -> Result<Evaluation, LabError> {
     let runs = crate::data::aligned(runs, model.channel_table());
     let runs = &runs[..];
     let mut free = Vec::with_capacity(runs.len());
     let mut shoot = Vec::with_capacity(runs.len());
     for r in runs {
         free.push(simulate_run(model, r, &View::FreeRun.resets(r))?);
-        shoot.push(simulate_run(
-            model,
-            r,
-            &View::Shooting(SHOOTING_WINDOW_S).resets(r),
-        )?);
+        shoot.push(simulate_run(model, r, &View::Shooting(window_s).resets(r))?);
     }
     let mut channels = BTreeMap::new();
     let mut all: Vec<Channel> = Vec::new();

@@ -18,6 +18,9 @@ pub struct CvArgs {
     /// Logs, one session each (at least two; repeatable, or several after one --data).
     #[arg(long, required = true, num_args = 1..)]
     data: Vec<PathBuf>,
+    /// Multiple-shooting window, s (the lab's own views use 20 s).
+    #[arg(long, default_value_t = rov_lab::calibrate::SHOOTING_WINDOW_S)]
+    window_s: f64,
     /// JSON on stdout.
     #[arg(long)]
     json: bool,
@@ -41,15 +44,17 @@ pub fn run(a: CvArgs) -> anyhow::Result<ExitCode> {
             threads: 2,
             ..Default::default()
         },
+        a.window_s,
     )?;
     if a.json {
         println!("{}", serde_json::to_string_pretty(&cv)?);
         return Ok(ExitCode::SUCCESS);
     }
     println!(
-        "{}: leave-one-session-out over {} sessions (fit %: multiple shooting / free run; before = as given, after = calibrated on the other sessions)",
+        "{}: leave-one-session-out over {} sessions (fit %: multiple shooting in {} s windows / free run; before = as given, after = calibrated on the other sessions)",
         a.model,
-        cv.sessions.len()
+        cv.sessions.len(),
+        cv.window_s
     );
     for s in &cv.sessions {
         println!("  held out {} ({} run(s))", s.session, s.runs);
