@@ -5,8 +5,9 @@
 
 use rov_control::{ControlConfig, ModeCommand, ModelSet, PilotInput};
 use rov_driver::{Link, LinkConfig, LinkEvent};
+use rov_station::{SimApp, SimLink};
 use rov_station::{StationCommand, StationCore};
-use rov_vehicle::{SimApp, SimLink, Vehicle, VehicleConfig};
+use rov_vehicle::{Vehicle, VehicleConfig};
 
 /// A small deterministic PRNG (xorshift64*), so the stream is reproducible.
 struct Rng(u64);

@@ -3,7 +3,7 @@
 //! `tokio`).
 
 use std::ops::ControlFlow;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use crate::error::TransportError;
 use crate::link::Link;
@@ -14,39 +14,7 @@ mod task;
 #[cfg(feature = "tokio")]
 pub use task::{LinkHandle, LinkSnapshot, RunnerOptions, spawn};
 
-/// A monotonic microsecond clock starting at zero.
-#[derive(Debug, Clone, Copy)]
-pub struct MonoClock {
-    start: Instant,
-}
-
-impl Default for MonoClock {
-    fn default() -> Self {
-        Self::new()
-    }
-}
-
-impl MonoClock {
-    /// Starts now.
-    #[must_use]
-    pub fn new() -> Self {
-        Self {
-            start: Instant::now(),
-        }
-    }
-
-    /// Microseconds since the start.
-    #[must_use]
-    pub fn now_us(&self) -> u64 {
-        u64::try_from(self.start.elapsed().as_micros()).unwrap_or(u64::MAX)
-    }
-
-    /// The instant of a clock reading.
-    #[must_use]
-    pub fn instant_at(&self, t_us: u64) -> Instant {
-        self.start + Duration::from_micros(t_us)
-    }
-}
+pub use rov_transport::MonoClock;
 
 /// Drives `link` over `transport` until `on_iteration` breaks or the transport fails.
 /// `on_iteration` runs after every wake-up (bytes, timeout or `max_wait`) with the link

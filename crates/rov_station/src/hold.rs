@@ -18,6 +18,7 @@
 //!   `tracking_rmse` (true state against the profile's reference over the profile), and
 //!   the step metrics describe the profile's final step (from its start to the end).
 
+use crate::sim_link::{SimApp, SimLink};
 use nalgebra::Vector3;
 use rov_control::{ControlConfig, ModeCommand, ModelChoice, ModelSet, TrackingProfile};
 use rov_driver::{Link, LinkConfig, LinkEvent};
@@ -25,7 +26,7 @@ use rov_dynamics::InitialConditions;
 use rov_dynamics::current::CurrentModel;
 use rov_sim::{SimConfig, Simulator, TetherForce};
 use rov_types::angle::wrap_deg_360;
-use rov_vehicle::{SimApp, SimLink, Vehicle, VehicleConfig};
+use rov_vehicle::{Vehicle, VehicleConfig};
 use serde::Serialize;
 
 use crate::core::{StationCommand, StationCore};

@@ -4,6 +4,8 @@
 //!   control tick out, failsafe wiring, pilot commands, a snapshot for the GUI).
 //! * [`hold`]: the `topside hold` scenario on virtual time (mock link + simulated vehicle).
 //! * [`metrics`]: step-response metrics on the true state.
+//! * [`sim_link`]: the virtual-time harness joining the driver's `Link` and the simulated
+//!   Pro 4 (`rov_vehicle::Vehicle`): used by `hold`, `VirtualStation` and the scenarios.
 //! * [`runtime`]: the real-time runtime (threads, deadlines, watchdog, gamepad, recording,
 //!   replay) behind a [`StationHandle`] for the GUI.
 #![cfg_attr(
@@ -37,6 +39,7 @@ pub mod core;
 pub mod hold;
 pub mod metrics;
 pub mod runtime;
+pub mod sim_link;
 
 pub use core::{CommandError, Snapshot, StationCommand, StationCore};
 pub use hold::{
@@ -47,3 +50,4 @@ pub use runtime::{
     Connection, Runtime, RuntimeCommand, RuntimeConfig, RuntimeError, StationHandle, StationView,
     VirtualReplay, VirtualStation,
 };
+pub use sim_link::{SimApp, SimLink, SimLinkStats};

@@ -31,7 +31,7 @@
 //! # Deterministic variants
 //!
 //! [`VirtualStation`] runs the same engine on virtual time through
-//! `rov_vehicle::SimLink`, stepped by the caller (GUI tests, benchmarks);
+//! `rov_station::SimLink`, stepped by the caller (GUI tests, benchmarks);
 //! [`Runtime::replay`] / [`VirtualReplay`] play a recorded session through the same view
 //! pipeline.
 

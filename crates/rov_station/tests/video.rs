@@ -6,12 +6,15 @@
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
+use rov_control::{ModeCommand, PilotInput};
 use rov_station::StationCommand;
 use rov_station::runtime::video::{StationVideo, VideoSettings};
 use rov_station::runtime::{
     Connection, ReplayCommand, Runtime, RuntimeCommand, RuntimeConfig, VirtualReplay,
     VirtualStation,
 };
+use rov_video::VideoFrame;
+use rov_video::simcam::{CameraModel, CameraPose, SimCamera, SimScene};
 
 /// The RTP sender shared with rov_video's tests (one copy).
 #[path = "../../rov_video/tests/common/rtp.rs"]
@@ -254,4 +257,93 @@ fn replay_shows_the_frame_of_the_seek_time() {
         (480_000_000..=540_000_000).contains(&offsets[0]),
         "{offsets:?}"
     );
+}
+
+// --- the simulator's camera over the station's built-in dive (moved from rov_video's
+// simcam test: rov_video sits below the station and does not depend on it)
+
+/// The luminance standard deviation of the lower quarter (seabed structure).
+fn lower_structure(f: &VideoFrame) -> f64 {
+    let start = (f.height_px as usize * 3 / 4) * f.width_px as usize * 4;
+    let lum: Vec<f64> = f.rgba[start..]
+        .chunks_exact(4)
+        .map(|p| 0.299 * f64::from(p[0]) + 0.587 * f64::from(p[1]) + 0.114 * f64::from(p[2]))
+        .collect();
+    let mean = lum.iter().sum::<f64>() / lum.len() as f64;
+    (lum.iter().map(|l| (l - mean).powi(2)).sum::<f64>() / lum.len() as f64).sqrt()
+}
+
+/// The dive `topside record --sim --duration-s 20` flies without a script (see
+/// crates/topside/src/cmd_record.rs: arm at 1 s, hold 3 m and 090° from 2 s, forward at
+/// 40 % from 15 s, disarm at 19 s), flown through the real station on virtual time; the
+/// camera follows the vehicle's depth and attitude with the lights off.
+#[test]
+fn the_builtin_20_s_dive_visibly_changes_the_picture_with_lights_off() {
+    let (mut st, handle) = VirtualStation::new(RuntimeConfig {
+        gamepad: false,
+        ..RuntimeConfig::default()
+    })
+    .unwrap();
+    let cam = SimCamera::new(SimScene::default(), CameraModel::default(), false).unwrap();
+    let t0 = st.now_us();
+    let mut frames: Vec<(f64, VideoFrame)> = Vec::new();
+    for k in 0..=1000u64 {
+        let t = k as f64 * 0.02;
+        if (1.0..5.0).contains(&t) && k % 12 == 0 && !handle.snapshot().armed {
+            handle.send(StationCommand::Arm);
+        }
+        if k == 100 {
+            handle.send(StationCommand::Mode(ModeCommand::SetDepth { depth_m: 3.0 }));
+            handle.send(StationCommand::Mode(ModeCommand::SetHeading {
+                heading_deg: 90.0,
+            }));
+        }
+        if (15.0..19.0).contains(&t) {
+            handle.send(StationCommand::Sticks(PilotInput {
+                surge: 0.4,
+                yaw: 0.0,
+                vertical: 0.0,
+            }));
+        }
+        if k == 950 {
+            handle.send(StationCommand::Disarm);
+        }
+        st.advance_to(t0 + k * 20_000).unwrap();
+        if k % 50 == 0 {
+            let s = handle.snapshot();
+            let pose = CameraPose::from_degrees(
+                0.0,
+                0.0,
+                s.depth_m.unwrap_or(0.0),
+                s.roll_deg.unwrap_or(0.0),
+                s.pitch_deg.unwrap_or(0.0),
+                s.heading_deg.unwrap_or(0.0),
+                0.0,
+            );
+            frames.push((t, cam.render(&pose, 0.0, k * 20_000_000, k)));
+        }
+    }
+    let snap = handle.snapshot();
+    assert!((snap.depth_m.unwrap() - 3.0).abs() < 0.5, "{snap:?}");
+    let first = &frames.iter().find(|(t, _)| *t >= 2.0).unwrap().1;
+    let last = &frames.last().unwrap().1;
+    let change = first.mean_abs_diff(last).unwrap();
+    assert!(
+        change > 8.0,
+        "start → end changes the picture by only {change:.1}/255"
+    );
+    // The seabed's grid and markers come into view in the lower part.
+    let (s0, s1) = (lower_structure(first), lower_structure(last));
+    assert!(
+        s1 > 2.0 * s0 && s1 > 6.0,
+        "seabed structure {s0:.1} → {s1:.1}"
+    );
+    // While it descends and turns (2–12 s) every second's picture is a new one.
+    let moving: Vec<f64> = frames
+        .windows(2)
+        .filter(|w| w[0].0 >= 2.0 && w[1].0 <= 12.0)
+        .map(|w| w[0].1.mean_abs_diff(&w[1].1).unwrap())
+        .collect();
+    assert!(moving.iter().all(|d| *d > 0.3), "{moving:?}");
+    handle.shutdown();
 }

@@ -10,7 +10,6 @@
 //!   internal loop is not documented.
 //! * [`faults`]: seeded, counted fault injection (dropped replies, garbage, bit flips,
 //!   fragmentation, delay, dead link, corrupted requests).
-//! * [`sim_link`]: the virtual-time harness joining a `rov_driver::Link` and a vehicle.
 //! * [`runner`]: the wall-time runner: the vehicle in a thread on a transport (pty end,
 //!   serial port, memory pipe), paced.
 //!
@@ -26,13 +25,11 @@ pub mod autopilot;
 pub mod faults;
 pub mod rng;
 pub mod runner;
-pub mod sim_link;
 pub mod vehicle;
 
 pub use autopilot::{AutopilotConfig, AxisGains};
 pub use faults::{FaultConfig, FaultCounts};
 pub use runner::{RunnerConfig, VehicleRunner};
-pub use sim_link::{SimApp, SimLink, SimLinkStats};
 pub use vehicle::{
     Vehicle, VehicleConfig, VehicleCounts, VehicleError, WireTiming, sim_config_data,
 };

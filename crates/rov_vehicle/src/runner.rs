@@ -11,8 +11,8 @@ use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 use std::time::Duration;
 
-use rov_driver::{MonoClock, Transport, TransportError};
 use rov_sim::TruthState;
+use rov_transport::{MonoClock, Transport, TransportError};
 
 use crate::vehicle::{Vehicle, VehicleError};
 

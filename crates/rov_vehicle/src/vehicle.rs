@@ -153,7 +153,7 @@ pub enum VehicleError {
     Sim(#[from] SimError),
     /// A transport failed (wall-time runner).
     #[error(transparent)]
-    Transport(#[from] rov_driver::TransportError),
+    Transport(#[from] rov_transport::TransportError),
 }
 
 /// Protocol-level tallies of the vehicle (besides the injected faults).

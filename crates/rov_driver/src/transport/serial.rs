@@ -39,7 +39,7 @@ fn io_err(port: &str, source: io::Error) -> TransportError {
 fn serial_err(port: &str, source: serialport::Error) -> TransportError {
     TransportError::Serial {
         port: port.to_string(),
-        source,
+        source: Box::new(source),
     }
 }
 

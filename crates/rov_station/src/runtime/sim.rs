@@ -1,5 +1,5 @@
 //! [`VirtualStation`]: the live engine on virtual time (the simulated Pro 4 through
-//! `rov_vehicle::SimLink`), stepped by the caller. Deterministic for a given seed and
+//! `rov_station::SimLink`), stepped by the caller. Deterministic for a given seed and
 //! command sequence: GUI snapshot tests and benchmarks use it behind an ordinary
 //! [`StationHandle`].
 
@@ -7,9 +7,10 @@ use std::sync::Arc;
 use std::sync::atomic::Ordering;
 use std::sync::mpsc::{Receiver, TryRecvError};
 
+use crate::sim_link::{SimApp, SimLink};
 use rov_control::ModelSet;
 use rov_driver::{Link, LinkEvent, MonoClock};
-use rov_vehicle::{SimApp, SimLink, Vehicle, VehicleConfig};
+use rov_vehicle::{Vehicle, VehicleConfig};
 
 use crate::runtime::engine::{Engine, Followup};
 use crate::runtime::view::Source;

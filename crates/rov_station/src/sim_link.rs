@@ -9,7 +9,7 @@
 
 use rov_driver::{Link, LinkEvent};
 
-use crate::vehicle::{Vehicle, VehicleError};
+use rov_vehicle::{Vehicle, VehicleError};
 
 /// The application side of the harness.
 pub trait SimApp {

@@ -3,6 +3,7 @@
 //! autodetect by ping, and the tokio runner.
 #![cfg(unix)]
 
+#[path = "driver/mod.rs"]
 mod common;
 
 use std::ops::ControlFlow;

@@ -1,14 +1,16 @@
 //! The link against the simulated vehicle over the in-memory, virtual-time pipe
-//! (`rov_vehicle::SimLink`): a 60 s control loop at 50 Hz with faults, the link-loss
+//! (`rov_station::SimLink`): a 60 s control loop at 50 Hz with faults, the link-loss
 //! failsafe (B1–B3), the onboard autopilot, and exact error accounting (A7).
 
+#[path = "driver/mod.rs"]
 mod common;
 
 use common::{DepthHold, assert_accounting, thrust, try_arm, vehicle};
 use rov_driver::{
     Alarm, ExchangeKind, FailCause, Health, Link, LinkConfig, LinkEvent, Phase, is_neutral,
 };
-use rov_vehicle::{FaultConfig, SimApp, SimLink, Vehicle, WireTiming};
+use rov_station::{SimApp, SimLink};
+use rov_vehicle::{FaultConfig, Vehicle, WireTiming};
 
 const S: u64 = 1_000_000;
 

@@ -1,11 +1,10 @@
 //! An in-memory, wall-time byte pipe (two channels). For the virtual-time pipe between
-//! a [`Link`](crate::Link) and a simulated vehicle see `rov_vehicle::sim_link`.
+//! the driver's `Link` and a simulated vehicle see `rov_station::sim_link`.
 
 use std::sync::mpsc::{Receiver, RecvTimeoutError, Sender, channel};
 use std::time::Duration;
 
-use super::{ByteSink, ByteSource, SplitHalves, Transport};
-use crate::error::TransportError;
+use crate::{ByteSink, ByteSource, SplitHalves, Transport, TransportError};
 
 /// Receiving half of a memory pipe.
 #[derive(Debug)]

@@ -4,7 +4,7 @@
 //!    (23-byte request + 42-byte reply = 5.64 ms on the wire → ≈ 177 exchanges/s).
 //! 2. Pacing off: the software's own ceiling over a bare pty.
 //!
-//! `cargo bench -p rov_driver --bench link_pty [-- SECONDS]`
+//! `cargo bench -p scenarios --bench link_pty [-- SECONDS]`
 
 use std::ops::ControlFlow;
 use std::time::{Duration, Instant};

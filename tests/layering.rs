@@ -1,0 +1,372 @@
+//! The layer rules of ARCHITECTURE.md, checked.
+//!
+//! 1. Every dependency edge between workspace crates (normal, build and dev) is one that
+//!    ARCHITECTURE.md's crate table allows: a normal edge must be in the row's "may depend
+//!    on" column and point to a lower layer; a dev edge may also name a crate in the row's
+//!    "its tests may also use" column (still a lower layer). Every workspace member has a
+//!    row.
+//! 2. The pure crates (the ARCHITECTURE.md rule "do no I/O and never read the wall
+//!    clock") contain, outside their tests, no clock read, no file system, no socket and
+//!    no environment access.
+//!
+//! Both read the real files, so the table cannot drift from the code unnoticed.
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::{Path, PathBuf};
+
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .expect("the scenarios crate sits in the workspace root")
+        .to_path_buf()
+}
+
+/// One row of the crate table.
+#[derive(Debug)]
+struct Row {
+    /// `None` for the scenarios crate (no layer: it may use anything).
+    layer: Option<u32>,
+    allowed: Allowed,
+    dev_allowed: Allowed,
+}
+
+#[derive(Debug)]
+enum Allowed {
+    Names(BTreeSet<String>),
+    /// "any lower layer"
+    AnyLower,
+    /// "any crate"
+    Any,
+}
+
+impl Allowed {
+    fn parse(cell: &str) -> Allowed {
+        let cell = cell.trim();
+        match cell {
+            "any lower layer" => Allowed::AnyLower,
+            "any crate" => Allowed::Any,
+            "—" | "-" | "" => Allowed::Names(BTreeSet::new()),
+            _ => Allowed::Names(
+                cell.split(',')
+                    .map(|s| s.trim().trim_matches('`').to_string())
+                    .filter(|s| !s.is_empty())
+                    .collect(),
+            ),
+        }
+    }
+
+    fn names(&self, dep: &str) -> Option<bool> {
+        match self {
+            Allowed::Names(n) => Some(n.contains(dep)),
+            Allowed::AnyLower | Allowed::Any => None,
+        }
+    }
+}
+
+/// The crate table of ARCHITECTURE.md: package name → row.
+fn table() -> BTreeMap<String, Row> {
+    let text = std::fs::read_to_string(root().join("ARCHITECTURE.md")).expect("ARCHITECTURE.md");
+    let mut rows = BTreeMap::new();
+    let mut in_table = false;
+    for line in text.lines() {
+        if line.starts_with("| layer | crate") {
+            in_table = true;
+            continue;
+        }
+        if !in_table {
+            continue;
+        }
+        if !line.starts_with('|') {
+            if !rows.is_empty() {
+                break;
+            }
+            continue;
+        }
+        if line.starts_with("|---") {
+            continue;
+        }
+        let cells: Vec<&str> = line.trim().trim_matches('|').split(" | ").collect();
+        assert!(
+            cells.len() >= 5,
+            "ARCHITECTURE.md crate table row without its five columns: {line}"
+        );
+        let layer = cells[0].trim().parse::<u32>().ok();
+        let name = cells[1]
+            .split('`')
+            .nth(1)
+            .unwrap_or_else(|| panic!("no `crate` name in row: {line}"))
+            .to_string();
+        let n = cells.len();
+        rows.insert(
+            name,
+            Row {
+                layer,
+                allowed: Allowed::parse(cells[n - 2]),
+                dev_allowed: Allowed::parse(cells[n - 1]),
+            },
+        );
+    }
+    assert!(
+        rows.len() > 5,
+        "the crate table was not found in ARCHITECTURE.md"
+    );
+    rows
+}
+
+/// Every workspace member: package name → (manifest, which workspace crates it uses as
+/// normal/build and as dev dependencies).
+struct Member {
+    dir: PathBuf,
+    normal: BTreeSet<String>,
+    dev: BTreeSet<String>,
+}
+
+fn members() -> BTreeMap<String, Member> {
+    let ws: toml::Table = std::fs::read_to_string(root().join("Cargo.toml"))
+        .expect("Cargo.toml")
+        .parse()
+        .expect("the workspace manifest parses");
+    let paths: Vec<String> = ws["workspace"]["members"]
+        .as_array()
+        .expect("workspace.members")
+        .iter()
+        .filter_map(|v| v.as_str().map(str::to_string))
+        .collect();
+    let mut manifests = BTreeMap::new();
+    for p in &paths {
+        let dir = root().join(p);
+        let m: toml::Table = std::fs::read_to_string(dir.join("Cargo.toml"))
+            .unwrap_or_else(|e| panic!("{p}/Cargo.toml: {e}"))
+            .parse()
+            .unwrap_or_else(|e| panic!("{p}/Cargo.toml: {e}"));
+        let name = m["package"]["name"]
+            .as_str()
+            .expect("package.name")
+            .to_string();
+        manifests.insert(name, (dir, m));
+    }
+    let names: BTreeSet<String> = manifests.keys().cloned().collect();
+    let deps_of = |m: &toml::Table, key: &str| -> BTreeSet<String> {
+        let mut out = BTreeSet::new();
+        let mut tables = vec![m.get(key)];
+        if let Some(t) = m.get("target").and_then(|t| t.as_table()) {
+            for cfg in t.values() {
+                tables.push(cfg.get(key));
+            }
+        }
+        for t in tables.into_iter().flatten().filter_map(|t| t.as_table()) {
+            for (k, v) in t {
+                // `package = "…"` renames a dependency.
+                let real = v
+                    .get("package")
+                    .and_then(|p| p.as_str())
+                    .unwrap_or(k)
+                    .to_string();
+                if names.contains(&real) {
+                    out.insert(real);
+                }
+            }
+        }
+        out
+    };
+    manifests
+        .into_iter()
+        .map(|(name, (dir, m))| {
+            let mut normal = deps_of(&m, "dependencies");
+            normal.extend(deps_of(&m, "build-dependencies"));
+            let mut dev = deps_of(&m, "dev-dependencies");
+            // A dev-dependency on the crate itself only turns on its features.
+            dev.remove(&name);
+            (name, Member { dir, normal, dev })
+        })
+        .collect()
+}
+
+#[test]
+fn every_dependency_edge_is_one_the_architecture_table_allows() {
+    let table = table();
+    let members = members();
+    let mut wrong = Vec::new();
+    for name in members.keys() {
+        if !table.contains_key(name) {
+            wrong.push(format!(
+                "{name}: a workspace member without a row in ARCHITECTURE.md's crate table"
+            ));
+        }
+    }
+    for name in table.keys() {
+        if !members.contains_key(name) {
+            wrong.push(format!(
+                "{name}: a row of ARCHITECTURE.md's crate table that is no workspace member"
+            ));
+        }
+    }
+    for (name, m) in &members {
+        let Some(row) = table.get(name) else { continue };
+        let check = |dep: &String, dev: bool, wrong: &mut Vec<String>| {
+            let kind = if dev { "dev-dependency" } else { "dependency" };
+            let Some(dep_row) = table.get(dep) else {
+                return;
+            };
+            if matches!(row.allowed, Allowed::Any) || matches!(row.dev_allowed, Allowed::Any) && dev
+            {
+                return;
+            }
+            if let (Some(l), Some(dl)) = (row.layer, dep_row.layer)
+                && dl >= l
+            {
+                wrong.push(format!(
+                    "{name} (layer {l}) → {dep} (layer {dl}): a {kind} that does not point to a lower layer"
+                ));
+                return;
+            }
+            let listed = row.allowed.names(dep).unwrap_or(true)
+                || (dev && row.dev_allowed.names(dep).unwrap_or(true));
+            if !listed {
+                wrong.push(format!(
+                    "{name} → {dep}: a {kind} that ARCHITECTURE.md's row for {name} does not list"
+                ));
+            }
+        };
+        for dep in &m.normal {
+            check(dep, false, &mut wrong);
+        }
+        for dep in &m.dev {
+            check(dep, true, &mut wrong);
+        }
+        // The table lists only edges that exist, so that it stays a true map.
+        if let Allowed::Names(listed) = &row.allowed {
+            for dep in listed {
+                if !m.normal.contains(dep) {
+                    wrong.push(format!(
+                        "{name}: ARCHITECTURE.md lists {dep} as a dependency but {}/Cargo.toml has no such edge",
+                        m.dir.display()
+                    ));
+                }
+            }
+        }
+    }
+    assert!(
+        wrong.is_empty(),
+        "layer rules broken:\n  {}",
+        wrong.join("\n  ")
+    );
+}
+
+/// The crates ARCHITECTURE.md calls pure: no I/O, no wall clock.
+const PURE: [&str; 7] = [
+    "firmware_proto",
+    "rov_types",
+    "rov_plot",
+    "rov_dynamics",
+    "rov_sim",
+    "rov_control",
+    "rov_lab",
+];
+
+/// What a pure crate must not contain outside its tests.
+const FORBIDDEN: [&str; 10] = [
+    "Instant::now",
+    "SystemTime::now",
+    "std::fs",
+    "File::open",
+    "File::create",
+    "OpenOptions",
+    "std::net",
+    "std::env::var",
+    "std::process",
+    "std::io::stdin",
+];
+
+/// The lines of `text` outside `#[cfg(test)]` items (brace counting; good enough for
+/// rustfmt-formatted code, whose test modules open a brace on the item's line).
+fn non_test_lines(text: &str) -> Vec<(usize, &str)> {
+    let mut out = Vec::new();
+    let mut skip_next_item = false;
+    let mut depth: i64 = 0;
+    let mut skipping = false;
+    for (i, line) in text.lines().enumerate() {
+        let t = line.trim();
+        if skipping {
+            depth += t.matches('{').count() as i64 - t.matches('}').count() as i64;
+            if depth <= 0 {
+                skipping = false;
+            }
+            continue;
+        }
+        if t.starts_with("#[cfg(test)]") {
+            skip_next_item = true;
+            continue;
+        }
+        if skip_next_item {
+            if t.starts_with("#[") || t.is_empty() || t.starts_with("//") {
+                continue;
+            }
+            skip_next_item = false;
+            depth = t.matches('{').count() as i64 - t.matches('}').count() as i64;
+            skipping = depth > 0;
+            continue;
+        }
+        if t.starts_with("//") {
+            continue;
+        }
+        out.push((i + 1, line));
+    }
+    out
+}
+
+fn rust_files(dir: &Path, out: &mut Vec<PathBuf>) {
+    let Ok(rd) = std::fs::read_dir(dir) else {
+        return;
+    };
+    for e in rd.flatten() {
+        let p = e.path();
+        if p.is_dir() {
+            rust_files(&p, out);
+        } else if p.extension().is_some_and(|x| x == "rs") {
+            out.push(p);
+        }
+    }
+}
+
+#[test]
+fn the_pure_crates_read_no_clock_and_do_no_io() {
+    let members = members();
+    let mut wrong = Vec::new();
+    for name in PURE {
+        let m = members
+            .get(name)
+            .unwrap_or_else(|| panic!("{name} is no longer a workspace member: update PURE"));
+        let mut files = Vec::new();
+        rust_files(&m.dir.join("src"), &mut files);
+        assert!(!files.is_empty(), "{name}: no sources found");
+        for f in files {
+            if f.file_name().is_some_and(|n| n == "tests.rs") {
+                continue;
+            }
+            let text = std::fs::read_to_string(&f).unwrap_or_default();
+            for (no, line) in non_test_lines(&text) {
+                for pat in FORBIDDEN {
+                    if line.contains(pat) {
+                        wrong.push(format!(
+                            "{}:{no}: `{pat}` in pure crate {name}",
+                            f.display()
+                        ));
+                    }
+                }
+            }
+        }
+    }
+    assert!(
+        wrong.is_empty(),
+        "I/O or clock in a pure crate:\n  {}",
+        wrong.join("\n  ")
+    );
+}
+
+#[test]
+fn the_scanner_skips_test_modules_and_sees_the_rest() {
+    let src = "fn a() { let t = std::time::Instant::now(); }\n#[cfg(test)]\nmod tests {\n    fn b() {\n        std::fs::read(\"x\");\n    }\n}\nfn c() {}\n";
+    let lines: Vec<usize> = non_test_lines(src).iter().map(|(n, _)| *n).collect();
+    assert_eq!(lines, vec![1, 8]);
+}
