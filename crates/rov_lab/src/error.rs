@@ -58,6 +58,21 @@ pub enum LabError {
         /// What is wrong.
         detail: String,
     },
+    /// A log could not be read or its map is invalid.
+    #[error(transparent)]
+    Log(#[from] rov_logs::LogError),
+    /// A log map names a command channel the lab's vocabulary does not have.
+    #[error(
+        "{map}: command channel `{channel}` is not one the lab knows ({known}); the vehicle file must declare the channel"
+    )]
+    UndeclaredChannel {
+        /// The map's label.
+        map: String,
+        /// The channel name.
+        channel: String,
+        /// The known channel names.
+        known: String,
+    },
     /// A plot could not be rendered.
     #[error("plot {name}: {detail}")]
     Plot {

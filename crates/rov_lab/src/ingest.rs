@@ -502,20 +502,30 @@ pub fn series_runs_with(
     Ok(out)
 }
 
-/// Reads a log of any supported text format: the BlueROV2 tank CSV (recognised by its
-/// `ch5_surge` column) or a measurement CSV.
-pub fn runs_from_text(text: &str, label: &str) -> Result<Vec<Run>, LabError> {
+/// Log maps shipped with the lab (`config/maps/`), by file name: a CSV whose header has
+/// every column one of them reads is read through it ([`runs_from_text`]).
+pub const SHIPPED_MAPS: [(&str, &str); 1] = [(
+    "config/maps/bluerov2_saabmarine_mex.toml",
+    include_str!("../../../config/maps/bluerov2_saabmarine_mex.toml"),
+)];
+
+/// The shipped map whose columns a CSV header has, if any.
+pub fn shipped_map_for(text: &str) -> Option<rov_logs::LogMap> {
     let first = text.lines().next().unwrap_or("");
-    if first.split(',').any(|c| c.trim() == "ch5_surge") {
-        let b = crate::bluerov::bluerov_to_series_inputs(text, label)?;
-        let mut runs = series_runs(&b.series, label, Some((b.inputs, b.present)))?;
-        for r in &mut runs {
-            r.treatment.dropped_time_rows = b.dropped_rows;
-            r.treatment.notes.push(
-                "BlueROV2 tank data: its own six body-axis demands as command channels, and the Pro 4 view (surge and yaw demands → port/starboard, heave → vertical) for the Pro 4 models".into(),
-            );
-        }
-        return Ok(runs);
+    let header: std::collections::BTreeSet<&str> = first.split(',').map(str::trim).collect();
+    SHIPPED_MAPS.iter().find_map(|(name, toml)| {
+        let map = rov_logs::LogMap::parse(toml, name).ok()?;
+        let fields = map.fields();
+        let time_ok = map.time_field.as_deref().is_none_or(|t| header.contains(t));
+        (time_ok && fields.iter().all(|f| header.contains(f.as_str()))).then_some(map)
+    })
+}
+
+/// Reads a log of any supported text format: a CSV with the columns of a shipped log map
+/// ([`SHIPPED_MAPS`]: the BlueROV2 tank data set) through that map, else a measurement CSV.
+pub fn runs_from_text(text: &str, label: &str) -> Result<Vec<Run>, LabError> {
+    if let Some(map) = shipped_map_for(text) {
+        return crate::mapped::mapped_runs(text.as_bytes(), &map, label);
     }
     measurement_runs(text, label)
 }

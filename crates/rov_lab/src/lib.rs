@@ -26,6 +26,7 @@ pub mod evaluate;
 pub mod ingest;
 pub mod lab;
 pub mod lm;
+pub mod mapped;
 pub mod metrics;
 pub mod model;
 pub mod params;
