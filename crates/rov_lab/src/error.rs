@@ -62,15 +62,13 @@ pub enum LabError {
     #[error(transparent)]
     Log(#[from] rov_logs::LogError),
     /// A log map names a command channel the lab's vocabulary does not have.
-    #[error(
-        "{map}: command channel `{channel}` is not one the lab knows ({known}); the vehicle file must declare the channel"
-    )]
+    #[error("{map}: `{channel}` cannot name a command channel (allowed: {known})")]
     UndeclaredChannel {
         /// The map's label.
         map: String,
         /// The channel name.
         channel: String,
-        /// The known channel names.
+        /// What a channel name may be.
         known: String,
     },
     /// A plot could not be rendered.

@@ -6,13 +6,14 @@
 //! measurement series and command vectors from that table, then the runs as for any log
 //! ([`crate::ingest::series_runs`]: gaps split, spikes excluded, closed loop detected).
 //!
-//! The lab's command vocabulary is [`CommandChannel`]: a map's command channel must be one
-//! of its names (`port`, `starboard`, `vertical`, `lateral`, `surge` … `yaw`); another
-//! name is [`LabError::UndeclaredChannel`]. The Pro 4 view of a row (port, starboard,
-//! vertical) is 0 % where the map has no such channel. A required signal the map lacks
-//! (depth, heading, pitch, roll) is missing (NaN), never zero.
+//! A map's command channels are any names a vehicle file can declare: the built-in ones
+//! (`port`, `starboard`, `vertical`, `lateral`, `surge` … `yaw`) keep their meaning, any
+//! other valid name becomes a free channel of the runs ([`Run::runs_from_named_commands`]),
+//! which a vehicle file's `mix_NAME` keys drive. The Pro 4 view of a row (port,
+//! starboard, vertical) is 0 % where the map has no such channel. A required signal the
+//! map lacks (depth, heading, pitch, roll) is missing (NaN), never zero.
 
-use rov_dynamics::models::vehicle::{CommandChannel, Commands, N_COMMANDS};
+use rov_dynamics::models::vehicle::{CommandChannel, Commands, N_COMMANDS, valid_channel_name};
 use rov_logs::{LogMap, MappedLog};
 use rov_types::measurement::{MeasurementRow, MeasurementSeries, OPTIONAL_COLUMNS};
 
@@ -24,10 +25,8 @@ use crate::data::Run;
 pub struct MappedSeries {
     /// The measurement series (Pro 4 command view).
     pub series: MeasurementSeries,
-    /// Every command channel per row, %.
-    pub inputs: Vec<Commands>,
-    /// Which command channels the map gives.
-    pub present: [bool; N_COMMANDS],
+    /// Each command channel the map gives (name, % on the series' rows), in name order.
+    pub commands: Vec<(String, Vec<f64>)>,
     /// What was done and met, in words (reader report, clamping, dropped rows).
     pub notes: Vec<String>,
     /// Rows dropped because their time did not increase.
@@ -36,20 +35,28 @@ pub struct MappedSeries {
 
 /// The series of a mapped log.
 pub fn mapped_series(mapped: &MappedLog, map_label: &str) -> Result<MappedSeries, LabError> {
-    let mut channels: Vec<(CommandChannel, &Vec<f64>)> = Vec::new();
     let table = mapped.lab_table();
-    for (name, col) in &table.commands {
-        let c = CommandChannel::parse(name).ok_or_else(|| LabError::UndeclaredChannel {
-            map: map_label.into(),
-            channel: name.clone(),
-            known: CommandChannel::ALL.map(CommandChannel::name).join(", "),
-        })?;
-        channels.push((c, col));
+    for name in table.commands.keys() {
+        if !valid_channel_name(name) {
+            return Err(LabError::UndeclaredChannel {
+                map: map_label.into(),
+                channel: name.clone(),
+                known: "a name of 1 to 32 characters a-z, 0-9 and _, starting with a letter \
+                        (port, starboard, vertical, lateral, surge, sway, heave, roll, pitch, \
+                        yaw keep their built-in meaning)"
+                    .into(),
+            });
+        }
     }
-    let mut present = [false; N_COMMANDS];
-    for (c, _) in &channels {
-        present[c.index()] = true;
-    }
+    let command = |name: &str, k: usize| -> f64 {
+        table
+            .commands
+            .get(name)
+            .and_then(|c| c.get(k))
+            .copied()
+            .filter(|x| x.is_finite())
+            .unwrap_or(0.0)
+    };
     let sig = |name: &str| table.signals.get(name);
     let mut opt_present = [false; 8];
     let opt_cols: Vec<Option<&Vec<f64>>> = OPTIONAL_COLUMNS.iter().map(|name| sig(name)).collect();
@@ -63,17 +70,12 @@ pub fn mapped_series(mapped: &MappedLog, map_label: &str) -> Result<MappedSeries
         present: opt_present,
         ..Default::default()
     };
-    let mut inputs = Vec::with_capacity(table.t_s.len());
     for (k, t) in table.t_s.iter().enumerate() {
-        let mut cmd: Commands = [0.0; N_COMMANDS];
-        for (c, col) in &channels {
-            cmd[c.index()] = col.get(k).copied().filter(|x| x.is_finite()).unwrap_or(0.0);
-        }
         let mut row = MeasurementRow {
             time_s: *t,
-            port_pct: cmd[CommandChannel::Port.index()],
-            starboard_pct: cmd[CommandChannel::Starboard.index()],
-            vertical_pct: cmd[CommandChannel::Vertical.index()],
+            port_pct: command("port", k),
+            starboard_pct: command("starboard", k),
+            vertical_pct: command("vertical", k),
             depth_m: at(sig("depth_m"), k),
             heading_deg: at(sig("heading_deg"), k),
             pitch_deg: at(sig("pitch_deg"), k),
@@ -84,7 +86,6 @@ pub fn mapped_series(mapped: &MappedLog, map_label: &str) -> Result<MappedSeries
             *slot = col.map(|_| at(*col, k)).filter(|x| x.is_finite());
         }
         series.rows.push(row);
-        inputs.push(cmd);
     }
     let mut notes = mapped.sentences();
     if table.rows_before_commands > 0 {
@@ -93,20 +94,45 @@ pub fn mapped_series(mapped: &MappedLog, map_label: &str) -> Result<MappedSeries
             table.rows_before_commands
         ));
     }
+    let commands = table
+        .commands
+        .iter()
+        .map(|(n, v)| (n.clone(), v.clone()))
+        .collect();
     Ok(MappedSeries {
         series,
-        inputs,
-        present,
+        commands,
         notes,
         dropped_rows: mapped.report.non_increasing,
     })
+}
+
+impl MappedSeries {
+    /// The built-in command channels as command vectors per row, and which the map gives
+    /// (free-named channels are not in this view; [`mapped_runs`] keeps them).
+    pub fn builtin_inputs(&self) -> (Vec<Commands>, [bool; N_COMMANDS]) {
+        let mut present = [false; N_COMMANDS];
+        let mut inputs: Vec<Commands> = vec![[0.0; N_COMMANDS]; self.series.rows.len()];
+        for (name, values) in &self.commands {
+            let Some(c) = CommandChannel::parse_builtin(name) else {
+                continue;
+            };
+            present[c.index()] = true;
+            for (inp, v) in inputs.iter_mut().zip(values) {
+                if let Some(slot) = inp.get_mut(c.index()) {
+                    *slot = if v.is_finite() { *v } else { 0.0 };
+                }
+            }
+        }
+        (inputs, present)
+    }
 }
 
 /// Reads a log (bytes) through a map into lab runs.
 pub fn mapped_runs(bytes: &[u8], map: &LogMap, label: &str) -> Result<Vec<Run>, LabError> {
     let mapped = map.read_apply(bytes, label)?;
     let m = mapped_series(&mapped, &map.label)?;
-    let mut runs = crate::ingest::series_runs(&m.series, label, Some((m.inputs, m.present)))?;
+    let mut runs = Run::runs_from_named_commands(&m.series, label, &m.commands, None)?;
     for r in &mut runs {
         r.treatment.dropped_time_rows = m.dropped_rows;
         r.treatment

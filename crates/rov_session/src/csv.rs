@@ -808,6 +808,19 @@ pub struct ImportReport {
 /// the module docs).
 pub fn import_csv(text: &str, label: &str, out: impl AsRef<Path>) -> Result<ImportReport> {
     let series = MeasurementSeries::parse_csv(text, label)?;
+    import_series(&series, label, "", out)
+}
+
+/// Imports a measurement series (from any log: a measurement CSV, or another vehicle's log
+/// read through a log map) as a session file at `out` (see the module docs).
+/// `config_toml` is kept in the session's info as its provenance (the log map for a mapped
+/// log; empty for a CSV).
+pub fn import_series(
+    series: &MeasurementSeries,
+    label: &str,
+    config_toml: &str,
+    out: impl AsRef<Path>,
+) -> Result<ImportReport> {
     let mut warnings = series.warnings.clone();
     let Some(first) = series.rows.first() else {
         return Err(SessionError::Unusable(format!("{label}: no data rows")));
@@ -843,7 +856,7 @@ pub fn import_csv(text: &str, label: &str, out: impl AsRef<Path>) -> Result<Impo
         vehicle: "import".into(),
         software_version: format!("rov_session {}", env!("CARGO_PKG_VERSION")),
         started_unix_s: f64::NAN,
-        config_toml: String::new(),
+        config_toml: config_toml.to_owned(),
     };
     // An import is not a live recording: flush rarely, sync once at the end.
     let opts = WriterOptions {

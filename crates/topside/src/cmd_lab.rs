@@ -94,6 +94,10 @@ enum LabCommand {
 /// `topside lab compare`.
 #[derive(Debug, Args)]
 pub struct CompareArgs {
+    /// Log map (TOML) for the --data and --validate logs: how their fields become the
+    /// lab's signals and the vehicle's command channels (any supported log format).
+    #[arg(long, value_name = "MAP.toml")]
+    pub map: Option<PathBuf>,
     /// model1, model2, model3, a vehicle definition or a saved extended-model TOML.
     #[arg(long)]
     pub model: String,
@@ -114,6 +118,10 @@ pub struct CompareArgs {
 /// `topside lab diagnose`.
 #[derive(Debug, Args)]
 pub struct DiagnoseArgs {
+    /// Log map (TOML) for the --data and --validate logs: how their fields become the
+    /// lab's signals and the vehicle's command channels (any supported log format).
+    #[arg(long, value_name = "MAP.toml")]
+    pub map: Option<PathBuf>,
     /// model1, model2, model3, a vehicle definition or a saved extended-model TOML.
     #[arg(long)]
     pub model: String,
@@ -134,6 +142,10 @@ pub struct DiagnoseArgs {
 /// `topside lab add`.
 #[derive(Debug, Args)]
 pub struct AddArgs {
+    /// Log map (TOML) for the --data and --validate logs: how their fields become the
+    /// lab's signals and the vehicle's command channels (any supported log format).
+    #[arg(long, value_name = "MAP.toml")]
+    pub map: Option<PathBuf>,
     /// model1, model2, model3, a vehicle definition or a saved extended-model TOML.
     #[arg(long)]
     pub model: String,
@@ -188,8 +200,8 @@ pub fn load_model_arg(arg: &str) -> anyhow::Result<LabModel> {
 
 /// Loads one log as a single continuous run (for commands that need one, such as
 /// `sim run`): a log that gaps split into several pieces is refused with their count.
-pub fn load_run(path: &Path) -> anyhow::Result<Run> {
-    let mut runs = load_log(path)?;
+pub fn load_run(path: &Path, map: Option<&rov_logs::LogMap>) -> anyhow::Result<Run> {
+    let mut runs = load_log_with(path, map)?;
     if runs.len() != 1 {
         anyhow::bail!(
             "{}: gaps split the log into {} pieces; this command needs one continuous run",
@@ -200,13 +212,35 @@ pub fn load_run(path: &Path) -> anyhow::Result<Run> {
     Ok(runs.remove(0))
 }
 
+/// Reads a log map (TOML) named on the command line.
+pub fn load_map(path: Option<&Path>) -> anyhow::Result<Option<rov_logs::LogMap>> {
+    let Some(path) = path else {
+        return Ok(None);
+    };
+    let text = fs::read_to_string(path)
+        .with_context(|| format!("reading the log map {}", path.display()))?;
+    let map = rov_logs::LogMap::parse(&text, &path.display().to_string())?;
+    Ok(Some(map))
+}
+
 /// Loads one log: measurement CSV, MCAP session, or BlueROV2 tank CSV, as runs (a gap
 /// splits a log into several), with the real-log treatment applied and recorded.
 pub fn load_log(path: &Path) -> anyhow::Result<Vec<Run>> {
+    load_log_with(path, None)
+}
+
+/// [`load_log`], or with a log map any log the map describes (CSV/TSV, DataFlash, tlog,
+/// ROS bags, MCAP with CDR messages), read through [`rov_lab::mapped::mapped_runs`].
+pub fn load_log_with(path: &Path, map: Option<&rov_logs::LogMap>) -> anyhow::Result<Vec<Run>> {
     let label = path
         .file_name()
         .map(|n| n.to_string_lossy().to_string())
         .unwrap_or_else(|| path.display().to_string());
+    if let Some(map) = map {
+        let bytes = fs::read(path).with_context(|| format!("reading {}", path.display()))?;
+        return rov_lab::mapped::mapped_runs(&bytes, map, &label)
+            .with_context(|| format!("reading {} through the map {}", path.display(), map.label));
+    }
     if path
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("mcap"))
@@ -219,7 +253,18 @@ pub fn load_log(path: &Path) -> anyhow::Result<Vec<Run>> {
         }
         return Ok(stream.finish(done.present)?);
     }
-    let text = fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+    let bytes = fs::read(path).with_context(|| format!("reading {}", path.display()))?;
+    match rov_logs::Format::detect(&bytes) {
+        Some(rov_logs::Format::Csv) | None => {}
+        Some(f) => anyhow::bail!(
+            "{}: a {} log; it needs a log map (--map MAP.toml) that says which fields are \
+             the signals and command channels (see README, \"Logs of other vehicles\")",
+            path.display(),
+            f.name()
+        ),
+    }
+    let text = String::from_utf8(bytes)
+        .map_err(|_| anyhow::anyhow!("{}: not UTF-8 text, and not a session", path.display()))?;
     Ok(rov_lab::ingest::runs_from_text(&text, &label)?)
 }
 
@@ -245,10 +290,11 @@ pub fn open_session_stream(
     Ok((session, stream))
 }
 
-fn load_runs(paths: &[PathBuf]) -> anyhow::Result<Vec<Run>> {
+/// Every log of a list, through the map when one is given.
+pub fn load_runs(paths: &[PathBuf], map: Option<&rov_logs::LogMap>) -> anyhow::Result<Vec<Run>> {
     let mut out = Vec::new();
     for p in paths {
-        out.extend(load_log(p)?);
+        out.extend(load_log_with(p, map)?);
     }
     Ok(out)
 }
@@ -288,7 +334,8 @@ fn print_summary_table(title: &str, m: &std::collections::BTreeMap<String, Chann
 
 fn run_compare(a: CompareArgs) -> anyhow::Result<ExitCode> {
     let model = load_model_arg(&a.model)?;
-    let runs = load_runs(&a.data)?;
+    let map = load_map(a.map.as_deref())?;
+    let runs = load_runs(&a.data, map.as_ref())?;
     let effects = match &a.effects {
         Some(s) => parse_effect_list(s)?,
         None => Vec::new(),
@@ -389,8 +436,9 @@ fn print_compare(r: &CompareReport) {
 
 fn run_diagnose(a: DiagnoseArgs) -> anyhow::Result<ExitCode> {
     let model = load_model_arg(&a.model)?;
-    let train = load_runs(&a.data)?;
-    let val = load_runs(&a.validate)?;
+    let map = load_map(a.map.as_deref())?;
+    let train = load_runs(&a.data, map.as_ref())?;
+    let val = load_runs(&a.validate, map.as_ref())?;
     let opts = DiagnoseOptions {
         threads: THREADS,
         ..Default::default()
@@ -553,8 +601,9 @@ fn run_add(a: AddArgs) -> anyhow::Result<ExitCode> {
         .map(|t| t.trim().to_string())
         .filter(|t| !t.is_empty())
         .collect();
-    let train = load_runs(&a.data)?;
-    let val = load_runs(&a.validate)?;
+    let map = load_map(a.map.as_deref())?;
+    let train = load_runs(&a.data, map.as_ref())?;
+    let val = load_runs(&a.validate, map.as_ref())?;
     let r = add_with_terms(&model, &a.model, &effects, &terms, &train, &val, THREADS)?;
     if let Some(path) = &a.save
         && let Some(m) = &r.model_fitted

@@ -18,6 +18,9 @@ pub struct CvArgs {
     /// Logs, one session each (at least two; repeatable, or several after one --data).
     #[arg(long, required = true, num_args = 1..)]
     data: Vec<PathBuf>,
+    /// Log map (TOML) for the logs (any supported format).
+    #[arg(long, value_name = "MAP.toml")]
+    map: Option<PathBuf>,
     /// Multiple-shooting window, s (the lab's own views use 20 s).
     #[arg(long, default_value_t = rov_lab::calibrate::SHOOTING_WINDOW_S)]
     window_s: f64,
@@ -33,10 +36,8 @@ fn pct(x: Option<f64>) -> String {
 /// Runs `topside lab cv`.
 pub fn run(a: CvArgs) -> anyhow::Result<ExitCode> {
     let model = crate::cmd_lab::load_model_arg(&a.model)?;
-    let mut runs = Vec::new();
-    for p in &a.data {
-        runs.extend(crate::cmd_lab::load_log(p)?);
-    }
+    let map = crate::cmd_lab::load_map(a.map.as_deref())?;
+    let runs = crate::cmd_lab::load_runs(&a.data, map.as_ref())?;
     let cv = leave_one_session_out(
         &model,
         &runs,

@@ -30,6 +30,9 @@ pub struct RunArgs {
     /// Measured run whose commands drive the model.
     #[arg(long)]
     data: PathBuf,
+    /// Log map (TOML) for --data (any supported log format).
+    #[arg(long, value_name = "MAP.toml")]
+    map: Option<PathBuf>,
     /// Output CSV.
     #[arg(long)]
     out: PathBuf,
@@ -53,7 +56,8 @@ pub(crate) fn column(ch: Channel) -> String {
 /// Runs `topside sim run`.
 pub fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
     let model = crate::cmd_lab::load_model_arg(&args.model)?;
-    let run = crate::cmd_lab::load_run(&args.data)?;
+    let map = crate::cmd_lab::load_map(args.map.as_deref())?;
+    let run = crate::cmd_lab::load_run(&args.data, map.as_ref())?;
     let view = match args.shooting_s {
         Some(w) if w.is_finite() && w > 0.0 => View::Shooting(w),
         Some(w) => anyhow::bail!("--shooting-s {w} must be a positive number of seconds"),

@@ -120,22 +120,11 @@ fn run_new(a: NewArgs) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
-/// Reads the logs for the sign check. With a map the log-map reader of issue 22 part 1
-/// turns any supported log into runs on the vehicle's channels; this build does not have
-/// it yet, so `--map` is refused with that reason (the hook is here).
+/// Reads the logs for the sign check: through the map when one is given (any supported
+/// log format, on the vehicle's own channel names), else as `lab` reads logs.
 fn load_check_logs(logs: &[PathBuf], map: Option<&Path>) -> anyhow::Result<Vec<Run>> {
-    if let Some(m) = map {
-        anyhow::bail!(
-            "--map {}: this build has no log-map reader yet (issue 22 part 1); without --map, \
-             --log reads MCAP sessions, measurement CSVs and the BlueROV2 tank CSVs",
-            m.display()
-        );
-    }
-    let mut out = Vec::new();
-    for p in logs {
-        out.extend(crate::cmd_lab::load_log(p)?);
-    }
-    Ok(out)
+    let map = crate::cmd_lab::load_map(map)?;
+    crate::cmd_lab::load_runs(logs, map.as_ref())
 }
 
 #[derive(serde::Serialize)]
