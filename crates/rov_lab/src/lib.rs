@@ -14,7 +14,6 @@
 )]
 
 pub mod analysis;
-pub mod bluerov;
 pub mod calibrate;
 pub mod catalog;
 pub mod cross_validate;

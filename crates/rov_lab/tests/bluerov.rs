@@ -1,10 +1,9 @@
-//! The real BlueROV2 tank data (shared/real_data/bluerov2_saabmarine_mex): converted to
-//! the measurement format and run through compare and diagnose end to end: finite
+//! The real BlueROV2 tank data (shared/real_data/bluerov2_saabmarine_mex): read through the
+//! shipped log map into the measurement format and run through compare and diagnose end to end: finite
 //! metrics, and on model3 (the Pro 4's three thrusters) the verdict "unexplained".
 
 use std::path::PathBuf;
 
-use rov_lab::bluerov::bluerov_to_series;
 use rov_lab::diagnose::{DiagnoseOptions, diagnose};
 use rov_lab::lab::compare;
 use rov_lab::{BaseKind, LabModel, Run};
@@ -21,7 +20,11 @@ fn data_dir() -> PathBuf {
 fn load(name: &str) -> Option<Run> {
     let path = data_dir().join(name);
     let text = std::fs::read_to_string(&path).ok()?;
-    let s = bluerov_to_series(&text, name).unwrap();
+    let map = rov_lab::ingest::shipped_map_for(&text).unwrap();
+    let mapped = map.read_apply(text.as_bytes(), name).unwrap();
+    let s = rov_lab::mapped::mapped_series(&mapped, &map.label)
+        .unwrap()
+        .series;
     // The converted series is a valid measurement CSV.
     let back = rov_types::MeasurementSeries::parse_csv(&s.to_csv(), name).unwrap();
     assert_eq!(back.rows.len(), s.rows.len());

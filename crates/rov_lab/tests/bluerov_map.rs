@@ -107,6 +107,5 @@ fn runs_from_text_reads_the_tank_csv_through_the_shipped_map() {
     assert!(runs[0].input_present[surge]);
 }
 
-mod reference {
-    pub use rov_lab::bluerov::bluerov_to_series_inputs;
-}
+#[path = "reference/bluerov_converter.rs"]
+mod reference;

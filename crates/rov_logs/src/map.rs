@@ -52,6 +52,12 @@ pub const SIGNALS: [&str; 12] = [
 
 /// Standard gravity, m/s².
 pub const G_M_S2: f64 = 9.80665;
+/// Default `[time] merge_s`, s: a logger writes the messages of one control-loop pass
+/// (ArduSub's 400 Hz loop: 2.5 ms) a few ms apart; samples within 10 ms of a row's first
+/// time are one row (a 100 Hz signal still gets a row per sample). Set 0 to keep every
+/// distinct time as its own row.
+pub const DEFAULT_MERGE_S: f64 = 0.01;
+
 /// Default water density for pressure → depth, kg/m³ (fresh water).
 pub const DEFAULT_DENSITY_KG_M3: f64 = 1000.0;
 
@@ -125,6 +131,9 @@ pub struct LogMap {
     pub time_field: Option<String>,
     /// Factor to seconds.
     pub time_scale: Option<f64>,
+    /// Measurement times closer than this (s) after a row's first time share that row
+    /// (`[time] merge_s`, default [`DEFAULT_MERGE_S`]).
+    pub merge_s: f64,
     /// Command channels, in the map's order.
     pub commands: Vec<CommandSpec>,
     /// Signals.
@@ -217,9 +226,22 @@ impl LogMap {
             }
         };
         let (mut time_field, mut time_scale) = (None, None);
+        let mut merge_s = DEFAULT_MERGE_S;
         if let Some(v) = root.get("time") {
             let t = table(f, "time", v)?;
-            check_keys(f, "time", t, &["field", "scale"])?;
+            check_keys(f, "time", t, &["field", "scale", "merge_s"])?;
+            if let Some(v) = t.get("merge_s") {
+                let x = num(f, "time.merge_s", v)?;
+                if !(0.0..=1.0).contains(&x) {
+                    return Err(map_err(
+                        f,
+                        "time.merge_s",
+                        v,
+                        "must be 0..1 s (measurement times closer than this share a row)",
+                    ));
+                }
+                merge_s = x;
+            }
             if let Some(v) = t.get("field") {
                 time_field = Some(string(f, "time.field", v)?);
             }
@@ -261,6 +283,7 @@ impl LogMap {
             format,
             time_field,
             time_scale,
+            merge_s,
             commands,
             signals,
         })
@@ -334,6 +357,7 @@ impl LogMap {
         };
         let mut out = MappedLog {
             report: log.report.clone(),
+            merge_s: self.merge_s,
             ..Default::default()
         };
         for c in &self.commands {
@@ -771,17 +795,21 @@ pub struct MappedLog {
     pub clamped: BTreeMap<String, usize>,
     /// What the reader met.
     pub report: ReadReport,
+    /// The map's `[time] merge_s`.
+    pub merge_s: f64,
 }
 
 /// The lab's table of a mapped log: one row per measurement time.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct LabTable {
-    /// Row times, s: every time at which some signal was measured, from the first time at
-    /// which every command channel has a sample.
+    /// Row times, s: the times at which some signal was measured (times within the map's
+    /// `merge_s` after a row's first time share that row), from the first time at which
+    /// every command channel has a sample.
     pub t_s: Vec<f64>,
     /// Each signal at the row times (NaN where it was not measured at that time).
     pub signals: BTreeMap<String, Vec<f64>>,
-    /// Each command channel held from its last sample at or before the row time.
+    /// Each command channel held from its last sample at or before the end of the row's
+    /// merge window (row time + `merge_s`: a command logged in the same pass counts).
     pub commands: BTreeMap<String, Vec<f64>>,
     /// Measurement times dropped because some command had no sample yet.
     pub rows_before_commands: usize,
@@ -808,13 +836,25 @@ impl MappedLog {
             .collect();
         times.sort_by(f64::total_cmp);
         times.dedup();
+        // Rows: a time more than merge_s after the current row's first time starts a row.
+        let mut rows: Vec<f64> = Vec::with_capacity(times.len());
+        for t in times {
+            if rows.last().is_none_or(|r| t - r > self.merge_s) {
+                rows.push(t);
+            }
+        }
         let start = self
             .commands
             .values()
             .map(|s| s.t_s.first().copied().unwrap_or(f64::INFINITY))
             .fold(f64::NEG_INFINITY, f64::max);
-        let before = times.iter().take_while(|t| **t < start).count();
-        let times: Vec<f64> = times.split_off(before.min(times.len()));
+        // A row whose samples began up to merge_s before the last command's first sample
+        // keeps it (the command's first sample belongs to that pass of the logger).
+        let before = rows
+            .iter()
+            .take_while(|t| **t + self.merge_s < start)
+            .count();
+        let times: Vec<f64> = rows.split_off(before.min(rows.len()));
         let mut table = LabTable {
             rows_before_commands: before,
             ..Default::default()
@@ -823,11 +863,18 @@ impl MappedLog {
             let mut col = vec![f64::NAN; times.len()];
             let mut k = 0usize;
             for (t, v) in s.t_s.iter().zip(&s.v) {
-                while times.get(k).is_some_and(|x| x < t) {
+                // The row of this sample: the last row starting at or before it.
+                while times.get(k + 1).is_some_and(|x| x <= t) {
                     k += 1;
                 }
-                if times.get(k) == Some(t)
-                    && let Some(c) = col.get_mut(k)
+                let Some(row_t) = times.get(k) else { break };
+                // Before the first row, or after the row's merge window: no row.
+                if t < row_t || *t - row_t > self.merge_s {
+                    continue;
+                }
+                // One sample per signal and row: the first.
+                if let Some(c) = col.get_mut(k)
+                    && c.is_nan()
                 {
                     *c = *v;
                 }
@@ -838,7 +885,7 @@ impl MappedLog {
             let mut cursor = 0usize;
             let col: Vec<f64> = times
                 .iter()
-                .map(|t| hold_at(s, *t, &mut cursor).unwrap_or(f64::NAN))
+                .map(|t| hold_at(s, *t + self.merge_s, &mut cursor).unwrap_or(f64::NAN))
                 .collect();
             table.commands.insert(name.clone(), col);
         }

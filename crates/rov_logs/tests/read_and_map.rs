@@ -73,3 +73,41 @@ fn six_thruster_pwm_csv_through_a_map() {
         other => panic!("{other:?}"),
     }
 }
+
+/// Messages of one logger pass, a few ms apart, share a row (`[time] merge_s`, default
+/// 10 ms); a slower signal is NaN on the rows it was not measured on (never invented);
+/// a command logged in the same pass is held on that row.
+#[test]
+fn samples_of_one_logger_pass_share_a_row() {
+    let mut w = Writer::new();
+    w.declare(130, "BARO", "QBff", &["TimeUS", "I", "Press", "Temp"])
+        .unwrap();
+    w.declare(131, "RCOU", "QH", &["TimeUS", "C1"]).unwrap();
+    w.declare(132, "ATT", "Qf", &["TimeUS", "Roll"]).unwrap();
+    for k in 0..20u32 {
+        let t = 1_000_000.0 + 100_000.0 * k as f64;
+        w.write(132, &[t, k as f64]).unwrap();
+        w.write(131, &[t + 1_000.0, 1500.0 + 10.0 * k as f64])
+            .unwrap();
+        if k % 2 == 0 {
+            w.write(130, &[t + 3_000.0, 1.0, 101_325.0, 20.0]).unwrap();
+        }
+    }
+    let bytes = w.into_bytes();
+    let map_text = "[commands.thr1]\nfield = \"RCOU.C1\"\npwm = [1100, 1500, 1900]\n\
+                    [signals]\nroll_deg = { field = \"ATT.Roll\" }\n\
+                    depth_m = { pressure_pa = \"BARO[1].Press\" }\n";
+    let m = LogMap::parse(map_text, "m.toml").unwrap();
+    let table = m.read_apply(&bytes, "t.BIN").unwrap().lab_table();
+    assert_eq!(table.t_s.len(), 20, "{:?}", table.t_s);
+    assert_eq!(table.signals["roll_deg"][7], 7.0);
+    assert_eq!(table.signals["depth_m"][6], 0.0);
+    assert!(table.signals["depth_m"][7].is_nan());
+    assert_eq!(table.commands["thr1"][7], 17.5);
+    // merge_s = 0: every distinct time is its own row.
+    let m = LogMap::parse(&format!("[time]\nmerge_s = 0.0\n{map_text}"), "m.toml").unwrap();
+    let table = m.read_apply(&bytes, "t.BIN").unwrap().lab_table();
+    assert_eq!(table.t_s.len(), 30 - 1, "{:?}", table.t_s);
+    let bad = LogMap::parse(&format!("[time]\nmerge_s = 2.0\n{map_text}"), "m.toml");
+    assert!(bad.is_err());
+}

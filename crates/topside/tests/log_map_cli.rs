@@ -118,10 +118,30 @@ fn log_map(swap_front_pair: bool) -> String {
     s
 }
 
-/// Simulates the template on the commands (`sim run` through a map of the commands-only
-/// CSV) and writes the log a real vehicle would have written.
-fn make_log(dir: &Path, name: &str, phase: f64) -> PathBuf {
-    let cmds = commands(phase);
+/// One row of a simulated vehicle's motion: depth m, heading, pitch, roll deg, yaw rate
+/// deg/s, surge, sway, heave m/s, roll and pitch rate deg/s.
+struct Motion {
+    depth_m: f64,
+    heading_deg: f64,
+    pitch_deg: f64,
+    roll_deg: f64,
+    yaw_rate_dps: f64,
+    surge_mps: f64,
+    sway_mps: f64,
+    heave_mps: f64,
+    roll_rate_dps: f64,
+    pitch_rate_dps: f64,
+}
+
+/// Simulates a vehicle file on the commands (`sim run` through a map of a commands-only
+/// CSV), starting at `depth_m`.
+fn simulate(
+    dir: &Path,
+    name: &str,
+    vehicle: &Path,
+    cmds: &[[f64; 6]],
+    depth_m: f64,
+) -> Vec<Motion> {
     let mut csv = String::from(
         "time_s,thr1_pwm,thr2_pwm,thr3_pwm,thr4_pwm,thr5_pwm,thr6_pwm,depth_m,heading_deg,pitch_deg,roll_deg,yaw_rate_dps,surge_mps,sway_mps,heave_mps,roll_rate_dps,pitch_rate_dps\n",
     );
@@ -130,7 +150,7 @@ fn make_log(dir: &Path, name: &str, phase: f64) -> PathBuf {
         for x in c {
             write!(csv, ",{}", pwm(*x)).unwrap();
         }
-        csv.push_str(",5.0,40.0,0.0,0.0,0.0,0.0,0.0,0.0,0.0,0.0\n");
+        writeln!(csv, ",{depth_m},40.0,0.0,0.0,0.0,0.0,0.0,0.0,0.0,0.0").unwrap();
     }
     let cmd_csv = dir.join(format!("{name}_commands.csv"));
     std::fs::write(&cmd_csv, csv).unwrap();
@@ -142,19 +162,27 @@ fn make_log(dir: &Path, name: &str, phase: f64) -> PathBuf {
         )
         .unwrap();
     }
-    cmd_map.push_str(
-        "[signals]\ndepth_m = { field = \"depth_m\" }\nheading_deg = { field = \"heading_deg\" }\n\
-         pitch_deg = { field = \"pitch_deg\" }\nroll_deg = { field = \"roll_deg\" }\n\
-         yaw_rate_dps = { field = \"yaw_rate_dps\" }\nsurge_mps = { field = \"surge_mps\" }\n\
-         sway_mps = { field = \"sway_mps\" }\nheave_mps = { field = \"heave_mps\" }\n\
-         roll_rate_dps = { field = \"roll_rate_dps\" }\npitch_rate_dps = { field = \"pitch_rate_dps\" }\n",
-    );
+    cmd_map.push_str("[signals]\n");
+    for s in [
+        "depth_m",
+        "heading_deg",
+        "pitch_deg",
+        "roll_deg",
+        "yaw_rate_dps",
+        "surge_mps",
+        "sway_mps",
+        "heave_mps",
+        "roll_rate_dps",
+        "pitch_rate_dps",
+    ] {
+        writeln!(cmd_map, "{s} = {{ field = \"{s}\" }}").unwrap();
+    }
     let cmd_map_path = dir.join(format!("{name}_commands_map.toml"));
     std::fs::write(&cmd_map_path, cmd_map).unwrap();
     let pred = dir.join(format!("{name}_pred.csv"));
     ok(&topside()
         .args(["sim", "run", "--model"])
-        .arg(template())
+        .arg(vehicle)
         .arg("--data")
         .arg(&cmd_csv)
         .arg("--map")
@@ -172,27 +200,57 @@ fn make_log(dir: &Path, name: &str, phase: f64) -> PathBuf {
             .position(|h| *h == n)
             .unwrap_or_else(|| panic!("{n}: {header:?}"))
     };
-    let (cd, ch, cp, cr, cy, cu) = (
-        col("depth_m"),
-        col("heading_deg"),
-        col("pitch_deg"),
-        col("roll_deg"),
-        col("yaw_rate_dps"),
-        col("surge_mps"),
-    );
-    let (cv, cw, cpp, cq) = (
-        col("sway_mps"),
-        col("heave_mps"),
-        col("roll_rate_dps"),
-        col("pitch_rate_dps"),
-    );
+    let c: Vec<usize> = [
+        "depth_m",
+        "heading_deg",
+        "pitch_deg",
+        "roll_deg",
+        "yaw_rate_dps",
+        "surge_mps",
+        "sway_mps",
+        "heave_mps",
+        "roll_rate_dps",
+        "pitch_rate_dps",
+    ]
+    .iter()
+    .map(|n| col(n))
+    .collect();
+    let out: Vec<Motion> = lines
+        .map(|line| {
+            let v: Vec<f64> = line.split(',').map(|x| x.parse().unwrap()).collect();
+            Motion {
+                depth_m: v[c[0]],
+                heading_deg: v[c[1]],
+                pitch_deg: v[c[2]],
+                roll_deg: v[c[3]],
+                yaw_rate_dps: v[c[4]],
+                surge_mps: v[c[5]],
+                sway_mps: v[c[6]],
+                heave_mps: v[c[7]],
+                roll_rate_dps: v[c[8]],
+                pitch_rate_dps: v[c[9]],
+            }
+        })
+        .collect();
+    assert_eq!(out.len(), cmds.len());
+    out
+}
+
+/// A small deterministic ripple as sensor noise.
+fn ripple(k: usize) -> f64 {
+    1e-3 * ((k * 7919 % 13) as f64 - 6.0)
+}
+
+/// The custom template flown on the commands, written as the CSV a real vehicle would
+/// have logged.
+fn make_log(dir: &Path, name: &str, phase: f64) -> PathBuf {
+    let cmds = commands(phase);
+    let motion = simulate(dir, name, &template(), &cmds, 5.0);
     let mut log = String::from(
         "t_ms,thr1_pwm,thr2_pwm,thr3_pwm,thr4_pwm,thr5_pwm,thr6_pwm,depth,yaw_deg,pitch_up_rad,roll_deg,gyro_z,u,v,w,p,q\n",
     );
-    for (k, (line, c)) in lines.zip(&cmds).enumerate() {
-        let v: Vec<f64> = line.split(',').map(|x| x.parse().unwrap()).collect();
-        // A small deterministic ripple as sensor noise.
-        let ripple = 1e-3 * ((k * 7919 % 13) as f64 - 6.0);
+    for (k, (m, c)) in motion.iter().zip(&cmds).enumerate() {
+        let r = ripple(k);
         write!(log, "{}", k * 100).unwrap();
         for x in c {
             write!(log, ",{}", pwm(*x)).unwrap();
@@ -200,22 +258,91 @@ fn make_log(dir: &Path, name: &str, phase: f64) -> PathBuf {
         writeln!(
             log,
             ",{},{},{},{},{},{},{},{},{},{}",
-            v[cd] + ripple,
-            v[ch] + ripple,
-            -(v[cp] + ripple).to_radians(),
-            v[cr] + ripple,
-            (v[cy] + ripple).to_radians(),
-            v[cu] + 0.1 * ripple,
-            v[cv] + 0.1 * ripple,
-            v[cw] + 0.1 * ripple,
-            v[cpp] + ripple,
-            v[cq] + ripple
+            m.depth_m + r,
+            m.heading_deg + r,
+            -(m.pitch_deg + r).to_radians(),
+            m.roll_deg + r,
+            (m.yaw_rate_dps + r).to_radians(),
+            m.surge_mps + 0.1 * r,
+            m.sway_mps + 0.1 * r,
+            m.heave_mps + 0.1 * r,
+            m.roll_rate_dps + r,
+            m.pitch_rate_dps + r
         )
         .unwrap();
     }
     let path = dir.join(format!("{name}.csv"));
     std::fs::write(&path, log).unwrap();
     path
+}
+
+/// The BlueROV2 template flown on the commands, written as ArduSub's DataFlash log: RCOU
+/// motor outputs (µs), ATT attitude (deg, yaw 0..360), IMU gyros (rad/s, instance 0), and
+/// BARO pressure (Pa) of the internal (instance 0, cabin pressure) and the external depth
+/// sensor (instance 1), at ArduSub-like different rates.
+fn make_dataflash(dir: &Path, name: &str, phase: f64) -> PathBuf {
+    let cmds = commands(phase);
+    let motion = simulate(dir, name, &bluerov2_template(), &cmds, 2.0);
+    let mut w = rov_logs::dataflash::Writer::new();
+    w.declare(
+        131,
+        "RCOU",
+        "QHHHHHH",
+        &["TimeUS", "C1", "C2", "C3", "C4", "C5", "C6"],
+    )
+    .unwrap();
+    w.declare(132, "ATT", "Qfff", &["TimeUS", "Roll", "Pitch", "Yaw"])
+        .unwrap();
+    w.declare(
+        133,
+        "IMU",
+        "QBfff",
+        &["TimeUS", "I", "GyrX", "GyrY", "GyrZ"],
+    )
+    .unwrap();
+    w.declare(134, "BARO", "QBff", &["TimeUS", "I", "Press", "Temp"])
+        .unwrap();
+    for (k, (m, c)) in motion.iter().zip(&cmds).enumerate() {
+        let r = ripple(k);
+        let t_us = 5_000_000.0 + 100_000.0 * k as f64;
+        let mut rc = vec![t_us];
+        rc.extend(c.iter().map(|x| pwm(*x).round()));
+        w.write(131, &rc).unwrap();
+        w.write(
+            132,
+            &[
+                t_us + 2_000.0,
+                m.roll_deg + r,
+                m.pitch_deg + r,
+                (m.heading_deg + r).rem_euclid(360.0),
+            ],
+        )
+        .unwrap();
+        w.write(
+            133,
+            &[
+                t_us + 1_000.0,
+                0.0,
+                (m.roll_rate_dps + r).to_radians(),
+                (m.pitch_rate_dps + r).to_radians(),
+                (m.yaw_rate_dps + r).to_radians(),
+            ],
+        )
+        .unwrap();
+        if k % 2 == 0 {
+            w.write(134, &[t_us + 3_000.0, 0.0, 95_000.0, 30.0])
+                .unwrap();
+            let press = 101_325.0 + 1000.0 * 9.80665 * (m.depth_m + r);
+            w.write(134, &[t_us + 3_000.0, 1.0, press, 12.0]).unwrap();
+        }
+    }
+    let path = dir.join(format!("{name}.BIN"));
+    std::fs::write(&path, w.into_bytes()).unwrap();
+    path
+}
+
+fn bluerov2_template() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../config/vehicles/templates/bluerov2.toml")
 }
 
 fn check(file: &Path, log: &Path, map: &Path) -> (Option<i32>, serde_json::Value) {
@@ -388,4 +515,63 @@ fn a_map_naming_a_missing_field_lists_the_fields_present() {
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("thr_b") && err.contains("thr_a"), "{err}");
+}
+
+/// The README's two commands from an ArduSub log to a lab verdict, on DataFlash logs of a
+/// six-motor BlueROV2 made by its template, through the shipped map
+/// (config/maps/ardusub_dataflash.toml; a copy with the surface pressure set, since the
+/// logs start at 2 m).
+#[test]
+fn an_ardusub_dataflash_log_through_the_shipped_map() {
+    let dir = tmp_dir("ardusub");
+    let a = make_dataflash(&dir, "a", 0.0);
+    let b = make_dataflash(&dir, "b", 5.0);
+    let shipped = std::fs::read_to_string(
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../config/maps/ardusub_dataflash.toml"),
+    )
+    .unwrap();
+    let with_surface = shipped.replace(
+        "density_kg_m3 = 1000.0 }",
+        "density_kg_m3 = 1000.0, surface_pa = 101325.0 }",
+    );
+    assert_ne!(with_surface, shipped);
+    let map = dir.join("ardusub.toml");
+    std::fs::write(&map, with_surface).unwrap();
+    let (code, j) = check(&bluerov2_template(), &a, &map);
+    assert_eq!(code, Some(0), "{j}");
+    for k in 1..=6 {
+        assert_eq!(
+            agree(&j, &format!("thr{k}")),
+            serde_json::Value::Bool(true),
+            "thr{k}: {j}"
+        );
+    }
+    let out = topside()
+        .args(["lab", "diagnose", "--model"])
+        .arg(bluerov2_template())
+        .arg("--data")
+        .arg(&a)
+        .arg("--validate")
+        .arg(&b)
+        .arg("--map")
+        .arg(&map)
+        .arg("--json")
+        .output()
+        .unwrap();
+    let j = json_of(ok(&out));
+    let pretty = serde_json::to_string_pretty(&j).unwrap();
+    let channels = j["baseline"]["channels"].as_object().unwrap();
+    for name in [
+        "depth",
+        "heading",
+        "pitch",
+        "roll",
+        "roll_rate",
+        "pitch_rate",
+        "yaw_rate",
+    ] {
+        let fit = channels[name]["fit_pct"].as_f64().unwrap_or(100.0);
+        assert!(fit > 90.0, "{name}: held-out fit {fit} %\n{pretty}");
+    }
+    assert_eq!(j["accepted"], serde_json::json!([]), "{pretty}");
 }

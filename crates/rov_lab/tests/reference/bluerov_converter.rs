@@ -1,3 +1,7 @@
+//! The converter the BlueROV2 tank CSVs were read with before the shipped log map
+//! (config/maps/bluerov2_saabmarine_mex.toml) replaced it: kept here only as the reference
+//! the map is compared with, sample for sample (tests/bluerov_map.rs).
+//!
 //! Converter for the real BlueROV2 tank data in `shared/real_data/bluerov2_saabmarine_mex/`
 //! (pilot demands plus motion-capture pose and body velocities, about 10 Hz) to the
 //! measurement CSV, so the lab can run on real data.
@@ -41,7 +45,7 @@
 use rov_dynamics::models::vehicle::{CommandChannel, Commands, N_COMMANDS};
 use rov_types::measurement::{MeasurementRow, MeasurementSeries, OptionalChannel};
 
-use crate::LabError;
+use rov_lab::LabError;
 
 /// A converted BlueROV2 log: the Pro 4 view, the vehicle's own command channels and what
 /// was dropped.
@@ -65,6 +69,7 @@ fn err(label: &str, detail: String) -> LabError {
 }
 
 /// Converts one BlueROV2 CSV (text) to a measurement series (the Pro 4 view).
+#[allow(dead_code)]
 pub fn bluerov_to_series(text: &str, label: &str) -> Result<MeasurementSeries, LabError> {
     bluerov_to_series_inputs(text, label).map(|b| b.series)
 }
@@ -164,7 +169,7 @@ pub fn bluerov_to_series_inputs(text: &str, label: &str) -> Result<BlueRovLog, L
         row.set(OptionalChannel::RollRateDps, opt(v[10].to_degrees()));
         row.set(OptionalChannel::PitchRateDps, opt(-v[11].to_degrees()));
         row.set(OptionalChannel::YawRateDps, opt(-v[12].to_degrees()));
-        let mut c = crate::data::commands_of_pct(&rov_dynamics::ThrustPct::new(
+        let mut c = rov_lab::data::commands_of_pct(&rov_dynamics::ThrustPct::new(
             row.port_pct,
             row.starboard_pct,
             row.vertical_pct,
