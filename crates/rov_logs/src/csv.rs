@@ -116,7 +116,8 @@ pub fn read(bytes: &[u8], label: &str, opts: &ReadOptions) -> Result<Log, LogErr
 /// `column N` (1-based position), the k-th repeat of a name `NAME#k` (k ≥ 2).
 pub fn unique_names(names: impl Iterator<Item = String>) -> Vec<String> {
     let mut out: Vec<String> = Vec::new();
-    let mut seen: std::collections::BTreeMap<String, usize> = std::collections::BTreeMap::new();
+    let mut taken: std::collections::HashSet<String> = std::collections::HashSet::new();
+    let mut seen: std::collections::HashMap<String, usize> = std::collections::HashMap::new();
     for (i, h) in names.enumerate() {
         let h = if h.is_empty() {
             format!("column {}", i + 1)
@@ -131,10 +132,11 @@ pub fn unique_names(names: impl Iterator<Item = String>) -> Vec<String> {
             format!("{h}#{n}")
         };
         // A generated name that a later (or earlier) header spells too: count on.
-        while out.contains(&name) {
+        while taken.contains(&name) {
             *n += 1;
             name = format!("{h}#{n}");
         }
+        taken.insert(name.clone());
         out.push(name);
     }
     out
