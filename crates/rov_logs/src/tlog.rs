@@ -28,7 +28,7 @@
 //! data ends the read, reported as truncated. The reader walks the bytes once and keeps
 //! only the samples of the fields it is asked for.
 
-use std::collections::BTreeMap;
+use std::collections::HashMap;
 
 use mavlink::dialects::ardupilotmega::MavMessage;
 use mavlink::{MavlinkVersion, Message};
@@ -174,7 +174,8 @@ fn clock(opts: &ReadOptions) -> Clock {
 pub fn read(bytes: &[u8], label: &str, opts: &ReadOptions) -> Result<Log, LogError> {
     let mut log = Log::default();
     let clock = clock(opts);
-    let mut fields: BTreeMap<String, Series> = BTreeMap::new();
+    let mut series: Vec<(String, Series)> = Vec::new();
+    let mut slots: HashMap<(u32, &'static str, Option<usize>), Option<usize>> = HashMap::new();
     let mut values: Vec<Value> = Vec::with_capacity(64);
     let mut pos = 0usize;
     let n = bytes.len();
@@ -211,12 +212,19 @@ pub fn read(bytes: &[u8], label: &str, opts: &ReadOptions) -> Result<Log, LogErr
                 };
                 let msg_name = msg.message_name();
                 for v in &values {
-                    let name = match v.index {
-                        None => format!("{msg_name}.{}", field_name(v.field)),
-                        Some(i) => format!("{msg_name}.{}[{i}]", field_name(v.field)),
-                    };
-                    if opts.wants(&name) {
-                        fields.entry(name).or_default().push(t, v.v);
+                    // Each (message, field, index) is named and looked up once.
+                    let slot = *slots.entry((id, v.field, v.index)).or_insert_with(|| {
+                        let name = match v.index {
+                            None => format!("{msg_name}.{}", field_name(v.field)),
+                            Some(i) => format!("{msg_name}.{}[{i}]", field_name(v.field)),
+                        };
+                        opts.wants(&name).then(|| {
+                            series.push((name, Series::default()));
+                            series.len() - 1
+                        })
+                    });
+                    if let Some((_, s)) = slot.and_then(|k| series.get_mut(k)) {
+                        s.push(t, v.v);
                     }
                 }
             }
@@ -261,7 +269,7 @@ pub fn read(bytes: &[u8], label: &str, opts: &ReadOptions) -> Result<Log, LogErr
         });
     }
     // A field whose time steps back keeps its increasing samples only.
-    for (name, s) in fields {
+    for (name, s) in series {
         let mut out = Series::default();
         let mut last = f64::NEG_INFINITY;
         for (t, v) in s.t_s.iter().zip(&s.v) {
