@@ -18,9 +18,15 @@ pub fn check_log(log: &Log, input_len: usize) {
     let r = &log.report;
     // Counted things are things met in the input (at least one byte each).
     let met = r.records + r.bad_records + r.untimed_records + r.skipped_bytes;
-    assert!(met <= input_len.max(1) * 2, "{met} things met in {input_len} bytes");
+    assert!(
+        met <= input_len.max(1) * 2,
+        "{met} things met in {input_len} bytes"
+    );
     let unknown: usize = r.unknown_types.values().sum();
-    assert!(unknown <= input_len, "{unknown} unknown records in {input_len} bytes");
+    assert!(
+        unknown <= input_len,
+        "{unknown} unknown records in {input_len} bytes"
+    );
     let samples: usize = log.fields.values().map(Series::len).sum();
     assert!(
         samples <= (r.records + 1) * MAX_SAMPLES_PER_RECORD,
@@ -32,7 +38,10 @@ pub fn check_log(log: &Log, input_len: usize) {
         for w in s.t_s.windows(2) {
             assert!(w[0] < w[1], "{name}: time not increasing: {w:?}");
         }
-        assert!(s.t_s.iter().all(|t| t.is_finite()), "{name}: time not finite");
+        assert!(
+            s.t_s.iter().all(|t| t.is_finite()),
+            "{name}: time not finite"
+        );
     }
     // The report in words never panics and names a truncation when there is one.
     let words = r.sentences();

@@ -11,8 +11,8 @@ mod log_common;
 
 use arbitrary::Arbitrary;
 use libfuzzer_sys::fuzz_target;
-use rov_logs::dataflash::{self, Writer};
 use rov_logs::ReadOptions;
+use rov_logs::dataflash::{self, Writer};
 
 #[derive(Debug, Arbitrary)]
 enum Source {
@@ -35,9 +35,24 @@ struct Input {
 
 /// The message types of the valid logs, all format characters the reader decodes.
 const TYPES: [(u8, &str, &str, &[&str]); 3] = [
-    (130, "BARO", "QBffhHg", &["TimeUS", "I", "Press", "Temp", "A", "B", "G"]),
-    (131, "RCOU", "QcCeELbB", &["TimeUS", "C1", "C2", "C3", "C4", "Lat", "S", "U"]),
-    (132, "TXT", "QnNZdqi", &["TimeUS", "A", "B", "Msg", "D", "Q", "I"]),
+    (
+        130,
+        "BARO",
+        "QBffhHg",
+        &["TimeUS", "I", "Press", "Temp", "A", "B", "G"],
+    ),
+    (
+        131,
+        "RCOU",
+        "QcCeELbB",
+        &["TimeUS", "C1", "C2", "C3", "C4", "Lat", "S", "U"],
+    ),
+    (
+        132,
+        "TXT",
+        "QnNZdqi",
+        &["TimeUS", "A", "B", "Msg", "D", "Q", "I"],
+    ),
 ];
 
 fn valid(msgs: &[(u8, u32, [i32; 4], [f32; 2])]) -> (Vec<u8>, Vec<usize>) {
@@ -55,11 +70,23 @@ fn valid(msgs: &[(u8, u32, [i32; 4], [f32; 2])]) -> (Vec<u8>, Vec<usize>) {
         let f: Vec<f64> = f.iter().map(|x| f64::from(*x)).collect();
         let values: Vec<f64> = match ty {
             130 => vec![t, i[0], f[0], f[1], i[1], i[2], f[1]],
-            131 => vec![t, i[0] * 0.01, i[1] * 0.01, i[2] * 0.01, i[3] * 0.01, i[0] * 1e-7, i[1], i[2]],
+            131 => vec![
+                t,
+                i[0] * 0.01,
+                i[1] * 0.01,
+                i[2] * 0.01,
+                i[3] * 0.01,
+                i[0] * 1e-7,
+                i[1],
+                i[2],
+            ],
             _ => vec![t, 0.0, 0.0, 0.0, f[0], i[0], i[1]],
         };
         w.write(ty, &values).expect("declared type");
-        len += 3 + fmt.bytes().map(|c| dataflash::field_size(c).unwrap_or(0)).sum::<usize>();
+        len += 3 + fmt
+            .bytes()
+            .map(|c| dataflash::field_size(c).unwrap_or(0))
+            .sum::<usize>();
         ends.push(len);
     }
     (w.into_bytes(), ends)

@@ -81,7 +81,11 @@ fn valid(msgs: &Msgs) -> (Vec<u8>, Vec<usize>) {
             component_id: 1,
             sequence: seq as u8,
         };
-        let version = if *v2 { MavlinkVersion::V2 } else { MavlinkVersion::V1 };
+        let version = if *v2 {
+            MavlinkVersion::V2
+        } else {
+            MavlinkVersion::V1
+        };
         mavlink::write_versioned_msg(&mut out, version, header, &message(*kind, *ms, *f, *u))
             .expect("writing to a Vec");
         ends.push(out.len());
@@ -91,9 +95,7 @@ fn valid(msgs: &Msgs) -> (Vec<u8>, Vec<usize>) {
 
 fuzz_target!(|input: Input| {
     let opts = ReadOptions {
-        time_field: input
-            .boot_time
-            .then(|| "ATTITUDE.time_boot_ms".to_string()),
+        time_field: input.boot_time.then(|| "ATTITUDE.time_boot_ms".to_string()),
         ..Default::default()
     };
     let read = |b: &[u8]| tlog::read(b, "fuzz.tlog", &opts);

@@ -200,7 +200,8 @@ pub struct ReadOptions {
     /// DataFlash takes `TimeUS` (µs) then `TimeMS` (ms); a tlog its record timestamps.
     pub time_field: Option<String>,
     /// Factor from the time field's unit to seconds (`None`: 1 for CSV; 1e-6 for
-    /// `TimeUS`, 1e-3 for `TimeMS`).
+    /// `TimeUS`, 1e-3 for `TimeMS`; for a tlog 1e-6 for the record timestamp or a field
+    /// ending `_us`/`_usec`, 1e-3 for one ending `_ms`).
     pub time_scale: Option<f64>,
     /// Keep only these fields (`None`: all).
     pub only: Option<std::collections::BTreeSet<String>>,
