@@ -6,7 +6,8 @@
 //! time is missing are skipped and counted, and so are rows whose time does not increase
 //! (a log's clock that steps back cannot say when their values were measured). A last row
 //! cut short (no line end and fewer cells than the header) is dropped as truncated. Lines
-//! starting with `#` are comments.
+//! starting with `#` are comments. Header names are made unique so that no column hides
+//! another ([`unique_names`]: an empty name is `column N`, a repeated one `NAME#2`, …).
 
 use crate::{Log, LogError, ReadOptions, Series};
 
@@ -32,10 +33,11 @@ pub fn read(bytes: &[u8], label: &str, opts: &ReadOptions) -> Result<Log, LogErr
         .into_iter()
         .find(|d| header_line.split(*d).count() > 1)
         .unwrap_or(',');
-    let header: Vec<String> = header_line
-        .split(delim)
-        .map(|h| h.trim().trim_matches('"').to_string())
-        .collect();
+    let header = unique_names(
+        header_line
+            .split(delim)
+            .map(|h| h.trim().trim_matches('"').to_string()),
+    );
     let t_col = match &opts.time_field {
         Some(name) => header.iter().position(|h| h == name).ok_or_else(|| {
             unreadable(format!(
@@ -110,10 +112,78 @@ pub fn read(bytes: &[u8], label: &str, opts: &ReadOptions) -> Result<Log, LogErr
     Ok(log)
 }
 
+/// Header names made unique, so that no column hides another: an empty name becomes
+/// `column N` (1-based position), the k-th repeat of a name `NAME#k` (k ≥ 2).
+pub fn unique_names(names: impl Iterator<Item = String>) -> Vec<String> {
+    let mut out: Vec<String> = Vec::new();
+    let mut taken: std::collections::HashSet<String> = std::collections::HashSet::new();
+    let mut seen: std::collections::HashMap<String, usize> = std::collections::HashMap::new();
+    for (i, h) in names.enumerate() {
+        let h = if h.is_empty() {
+            format!("column {}", i + 1)
+        } else {
+            h
+        };
+        let n = seen.entry(h.clone()).or_insert(0);
+        *n += 1;
+        let mut name = if *n == 1 {
+            h.clone()
+        } else {
+            format!("{h}#{n}")
+        };
+        // A generated name that a later (or earlier) header spells too: count on.
+        while taken.contains(&name) {
+            *n += 1;
+            name = format!("{h}#{n}");
+        }
+        taken.insert(name.clone());
+        out.push(name);
+    }
+    out
+}
+
 /// A finite number in a cell (quotes allowed), or none.
 fn parse_num(c: &str) -> Option<f64> {
     c.trim_matches('"')
         .parse::<f64>()
         .ok()
         .filter(|x| x.is_finite())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Found by the `log_csv` fuzz target: with two columns of one name the later one
+    /// replaced the earlier, so a prefix of the file and the whole file gave that name
+    /// different columns. Every column keeps its own name now.
+    #[test]
+    fn repeated_and_empty_header_names_keep_every_column() {
+        let text = "t,a,,a,a#2\n0,1,2,3,4\n1,5,6,7,8\n";
+        let log = read(
+            text.as_bytes(),
+            "dup.csv",
+            &ReadOptions {
+                time_field: Some("t".into()),
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        assert_eq!(log.names(), ["a", "a#2", "a#2#2", "column 3"]);
+        assert_eq!(log.fields["a"].v, [1.0, 5.0]);
+        assert_eq!(log.fields["column 3"].v, [2.0, 6.0]);
+        assert_eq!(log.fields["a#2"].v, [3.0, 7.0]);
+        assert_eq!(log.fields["a#2#2"].v, [4.0, 8.0]);
+        // A prefix names the same columns the same way.
+        let cut = read(
+            &text.as_bytes()[..19],
+            "dup.csv",
+            &ReadOptions {
+                time_field: Some("t".into()),
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        assert_eq!(cut.fields["a#2"].v, [3.0]);
+    }
 }

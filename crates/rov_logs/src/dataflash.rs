@@ -5,9 +5,10 @@
 //! whole length, a 4-character name, a format string (one character per field) and the
 //! comma-separated column names. Fields are little-endian; the format characters and the
 //! scalings applied are those of ArduPilot's `LogStructure.h` (and of pymavlink's
-//! `DFReader`, which the tests compare against): `b B h H i I q Q f d M` as they are,
-//! `c C e E` ×0.01, `L` (latitude/longitude) ×1e-7; the text fields `n N Z` and the array
-//! `a` are skipped (not numbers).
+//! `DFReader`, which the tests compare against): `b B h H i I q Q f d M` as they are, `g`
+//! (IEEE half float), `c C e E` /100, `L` (latitude/longitude) /1e7; the text fields
+//! `n N Z` and the array `a` are skipped (not numbers). `M` (flight mode) is read as
+//! ArduPilot writes it, `uint8_t` (DFReader reads it as `int8`; modes are below 128).
 //!
 //! Each message's time is its `TimeUS` field (µs, or the field [`ReadOptions::time_field`]
 //! names); a message without one is skipped and counted. A message with an instance column
@@ -35,13 +36,62 @@ pub const FMT_LEN: usize = 89;
 pub fn field_size(c: u8) -> Option<usize> {
     Some(match c {
         b'b' | b'B' | b'M' => 1,
-        b'h' | b'H' | b'c' | b'C' => 2,
+        b'h' | b'H' | b'c' | b'C' | b'g' => 2,
         b'i' | b'I' | b'f' | b'e' | b'E' | b'L' | b'n' => 4,
         b'q' | b'Q' | b'd' => 8,
         b'N' => 16,
         b'Z' | b'a' => 64,
         _ => return None,
     })
+}
+
+/// An IEEE 754 half-precision float (binary16) as f64.
+pub fn half_to_f64(h: u16) -> f64 {
+    let sign = if h & 0x8000 != 0 { -1.0 } else { 1.0 };
+    let exp = i32::from((h >> 10) & 0x1F);
+    let frac = f64::from(h & 0x03FF);
+    sign * match exp {
+        0 => frac * 2f64.powi(-24),
+        31 if frac == 0.0 => f64::INFINITY,
+        31 => f64::NAN,
+        e => (1.0 + frac / 1024.0) * 2f64.powi(e - 15),
+    }
+}
+
+/// The nearest half-precision float to `x` (round to nearest, ties to even), for the
+/// writer.
+pub fn f64_to_half(x: f64) -> u16 {
+    if x.is_nan() {
+        return 0x7E00;
+    }
+    let sign: u16 = if x.is_sign_negative() { 0x8000 } else { 0 };
+    let a = x.abs();
+    if a >= 65520.0 {
+        return sign | 0x7C00;
+    }
+    // Units of the last place: 2^-24 below 2^-14 (subnormals), else 2^(e-10).
+    let e = if a < 2f64.powi(-14) {
+        -14
+    } else {
+        a.log2().floor() as i32
+    };
+    let ulp = 2f64.powi(e - 10);
+    let q = a / ulp;
+    let mut m = q.round();
+    if (q - q.trunc() - 0.5).abs() == 0.0 && m % 2.0 != 0.0 {
+        m -= 1.0;
+    }
+    let v = m * ulp;
+    // Re-derive the fields from the rounded value (rounding may carry into the exponent).
+    if v < 2f64.powi(-14) {
+        return sign | (v / 2f64.powi(-24)) as u16;
+    }
+    if v >= 65520.0 {
+        return sign | 0x7C00;
+    }
+    let e = v.log2().floor() as i32;
+    let frac = (v / 2f64.powi(e) - 1.0) * 1024.0;
+    sign | (((e + 15) as u16) << 10) | (frac as u16)
 }
 
 /// Decodes one numeric field (`None` for text and arrays, or too few bytes).
@@ -54,13 +104,16 @@ pub fn decode_field(c: u8, b: &[u8]) -> Option<f64> {
         b'B' | b'M' => u8::from_le_bytes(arr(b)?) as f64,
         b'h' => i16::from_le_bytes(arr(b)?) as f64,
         b'H' => u16::from_le_bytes(arr(b)?) as f64,
-        b'c' => i16::from_le_bytes(arr(b)?) as f64 * 0.01,
-        b'C' => u16::from_le_bytes(arr(b)?) as f64 * 0.01,
+        // Scaled types divide by 100 or 1e7 (exact divisors, one rounding), as DFReader
+        // does: multiplying by 0.01 would round twice and differ in the last bit.
+        b'c' => i16::from_le_bytes(arr(b)?) as f64 / 100.0,
+        b'C' => u16::from_le_bytes(arr(b)?) as f64 / 100.0,
+        b'g' => half_to_f64(u16::from_le_bytes(arr(b)?)),
         b'i' => i32::from_le_bytes(arr(b)?) as f64,
         b'I' => u32::from_le_bytes(arr(b)?) as f64,
-        b'e' => i32::from_le_bytes(arr(b)?) as f64 * 0.01,
-        b'E' => u32::from_le_bytes(arr(b)?) as f64 * 0.01,
-        b'L' => i32::from_le_bytes(arr(b)?) as f64 * 1e-7,
+        b'e' => i32::from_le_bytes(arr(b)?) as f64 / 100.0,
+        b'E' => u32::from_le_bytes(arr(b)?) as f64 / 100.0,
+        b'L' => i32::from_le_bytes(arr(b)?) as f64 / 1e7,
         b'f' => f32::from_le_bytes(arr(b)?) as f64,
         b'd' => f64::from_le_bytes(arr(b)?),
         b'q' => i64::from_le_bytes(arr(b)?) as f64,
@@ -329,6 +382,7 @@ impl Writer {
                 b'B' | b'M' => self.out.extend((*v as u8).to_le_bytes()),
                 b'h' => self.out.extend((*v as i16).to_le_bytes()),
                 b'H' => self.out.extend((*v as u16).to_le_bytes()),
+                b'g' => self.out.extend(f64_to_half(*v).to_le_bytes()),
                 b'c' => self.out.extend((r(0.01) as i16).to_le_bytes()),
                 b'C' => self.out.extend((r(0.01) as u16).to_le_bytes()),
                 b'i' => self.out.extend((*v as i32).to_le_bytes()),

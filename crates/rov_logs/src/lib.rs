@@ -2,7 +2,8 @@
 //!
 //! A reader turns a log (bytes the caller passes: this crate opens no file and reads no
 //! clock) into a [`Log`]: every numeric field as its own timestamped series, named as the
-//! map names it (a CSV column; `MSG.Field` in an ArduSub DataFlash log). A log map
+//! map names it (a CSV column; `MSG.Field` in an ArduSub DataFlash log; `MESSAGE.field` in
+//! a MAVLink tlog). A log map
 //! ([`map::LogMap`], TOML) says which fields are the lab's canonical signals and the
 //! vehicle's command channels and how to convert them; [`map::LogMap::apply`] gives the
 //! mapped series and [`map::MappedLog::lab_table`] the lab's table: one row per
@@ -21,6 +22,7 @@
 pub mod csv;
 pub mod dataflash;
 pub mod map;
+pub mod tlog;
 
 use std::collections::BTreeMap;
 
@@ -33,17 +35,20 @@ pub enum Format {
     Csv,
     /// ArduPilot/ArduSub DataFlash binary log (`.BIN`).
     DataFlash,
+    /// MAVLink telemetry log (`.tlog`): timestamped MAVLink v1/v2 frames.
+    Tlog,
 }
 
 impl Format {
     /// Every format, as the map's `format` key spells it.
-    pub const NAMES: [&'static str; 2] = ["csv", "dataflash"];
+    pub const NAMES: [&'static str; 3] = ["csv", "dataflash", "tlog"];
 
     /// Parses the map's `format` value.
     pub fn parse(s: &str) -> Option<Self> {
         match s.trim().to_ascii_lowercase().as_str() {
             "csv" | "tsv" => Some(Self::Csv),
             "dataflash" | "bin" => Some(Self::DataFlash),
+            "tlog" | "mavlink" => Some(Self::Tlog),
             _ => None,
         }
     }
@@ -53,16 +58,21 @@ impl Format {
         match self {
             Self::Csv => "csv",
             Self::DataFlash => "dataflash",
+            Self::Tlog => "tlog",
         }
     }
 
     /// Detects the format from the first bytes of a log: a DataFlash log starts with its
-    /// record head `A3 95` and an FMT record (type 128); text is taken as CSV/TSV.
+    /// record head `A3 95` and an FMT record (type 128); a tlog with a timestamp and a MAVLink
+    /// frame whose CRC checks ([`tlog::looks_like`]); text is taken as CSV/TSV.
     pub fn detect(bytes: &[u8]) -> Option<Self> {
         if bytes.len() >= 3
             && bytes[..3] == [dataflash::HEAD1, dataflash::HEAD2, dataflash::FMT_TYPE]
         {
             return Some(Self::DataFlash);
+        }
+        if tlog::looks_like(bytes) {
+            return Some(Self::Tlog);
         }
         let head = &bytes[..bytes.len().min(4096)];
         let text = head
@@ -184,11 +194,14 @@ impl Log {
 pub struct ReadOptions {
     /// The time field: a CSV column; for DataFlash the name of the time field every
     /// message carries (`TimeUS`; a map's `"RCOU.TimeUS"` names it by its field part).
+    /// For a tlog, `tlog.timestamp_us` (the record's timestamp) or `MESSAGE.field` (each
+    /// message's own field of that name, see [`tlog`]).
     /// `None`: CSV takes the first column named `time_s`, `time`, `t` or `timestamp`;
-    /// DataFlash takes `TimeUS` (µs) then `TimeMS` (ms).
+    /// DataFlash takes `TimeUS` (µs) then `TimeMS` (ms); a tlog its record timestamps.
     pub time_field: Option<String>,
     /// Factor from the time field's unit to seconds (`None`: 1 for CSV; 1e-6 for
-    /// `TimeUS`, 1e-3 for `TimeMS`).
+    /// `TimeUS`, 1e-3 for `TimeMS`; for a tlog 1e-6 for the record timestamp or a field
+    /// ending `_us`/`_usec`, 1e-3 for one ending `_ms`).
     pub time_scale: Option<f64>,
     /// Keep only these fields (`None`: all).
     pub only: Option<std::collections::BTreeSet<String>>,
@@ -264,5 +277,6 @@ pub fn read(
     match format {
         Format::Csv => csv::read(bytes, label, opts),
         Format::DataFlash => dataflash::read(bytes, label, opts),
+        Format::Tlog => tlog::read(bytes, label, opts),
     }
 }

@@ -1,10 +1,11 @@
 //! The log map: how a log's fields become the lab's signals and command channels.
 //!
 //! ```toml
-//! format = "csv"          # csv | dataflash; optional: detected from the log's first bytes
+//! format = "csv"          # csv | dataflash | tlog; optional: detected from the log's first bytes
 //! [time]
-//! field = "time_s"        # csv column; dataflash "MSG.TimeUS" (every message's own time field)
-//! scale = 1.0             # to seconds (default 1; 1e-6 for a DataFlash TimeUS)
+//! field = "time_s"        # csv column; dataflash "MSG.TimeUS" (every message's own time field);
+//!                         # tlog "tlog.timestamp_us" (record time, the default) or "MESSAGE.field"
+//! scale = 1.0             # to seconds (default 1; 1e-6 for a DataFlash TimeUS or tlog µs)
 //! [commands.thr1]         # a command channel of the vehicle file (any name)
 //! field = "thr1_pwm_us"
 //! pwm = [1100, 1500, 1900]   # µs at full reverse, neutral, full forward → −100..100 %
