@@ -21,6 +21,10 @@
 pub mod csv;
 pub mod dataflash;
 pub mod map;
+pub mod mcap_ros2;
+pub mod ros1;
+pub mod rosmsg;
+pub mod rostopic;
 
 use std::collections::BTreeMap;
 
@@ -33,17 +37,23 @@ pub enum Format {
     Csv,
     /// ArduPilot/ArduSub DataFlash binary log (`.BIN`).
     DataFlash,
+    /// ROS 1 bag (`#ROSBAG V2.0`).
+    Ros1,
+    /// MCAP: a ROS 2 bag (CDR messages) or any MCAP with ROS 1 or CDR messages.
+    Mcap,
 }
 
 impl Format {
     /// Every format, as the map's `format` key spells it.
-    pub const NAMES: [&'static str; 2] = ["csv", "dataflash"];
+    pub const NAMES: [&'static str; 4] = ["csv", "dataflash", "ros1", "mcap"];
 
     /// Parses the map's `format` value.
     pub fn parse(s: &str) -> Option<Self> {
         match s.trim().to_ascii_lowercase().as_str() {
             "csv" | "tsv" => Some(Self::Csv),
             "dataflash" | "bin" => Some(Self::DataFlash),
+            "ros1" | "bag" | "rosbag" => Some(Self::Ros1),
+            "mcap" | "ros2" => Some(Self::Mcap),
             _ => None,
         }
     }
@@ -53,16 +63,25 @@ impl Format {
         match self {
             Self::Csv => "csv",
             Self::DataFlash => "dataflash",
+            Self::Ros1 => "ros1",
+            Self::Mcap => "mcap",
         }
     }
 
     /// Detects the format from the first bytes of a log: a DataFlash log starts with its
-    /// record head `A3 95` and an FMT record (type 128); text is taken as CSV/TSV.
+    /// record head `A3 95` and an FMT record (type 128); a ROS 1 bag with `#ROSBAG V2.0`,
+    /// an MCAP file with its magic `89 M C A P 30 0D 0A`; text is taken as CSV/TSV.
     pub fn detect(bytes: &[u8]) -> Option<Self> {
         if bytes.len() >= 3
             && bytes[..3] == [dataflash::HEAD1, dataflash::HEAD2, dataflash::FMT_TYPE]
         {
             return Some(Self::DataFlash);
+        }
+        if bytes.starts_with(ros1::MAGIC) {
+            return Some(Self::Ros1);
+        }
+        if bytes.starts_with(mcap_ros2::MAGIC) {
+            return Some(Self::Mcap);
         }
         let head = &bytes[..bytes.len().min(4096)];
         let text = head
@@ -115,6 +134,8 @@ pub struct ReadReport {
     pub skipped_bytes: usize,
     /// Where the log ended early (truncated or corrupted mid-record), in words.
     pub truncated: Option<String>,
+    /// Other things a reader says about how it read the log (e.g. which time it used).
+    pub notes: Vec<String>,
 }
 
 impl ReadReport {
@@ -159,6 +180,7 @@ impl ReadReport {
         if let Some(t) = &self.truncated {
             out.push(format!("read to the last good record: {t}"));
         }
+        out.extend(self.notes.iter().cloned());
         out
     }
 }
@@ -264,5 +286,7 @@ pub fn read(
     match format {
         Format::Csv => csv::read(bytes, label, opts),
         Format::DataFlash => dataflash::read(bytes, label, opts),
+        Format::Ros1 => ros1::read(bytes, label, opts),
+        Format::Mcap => mcap_ros2::read(bytes, label, opts),
     }
 }
