@@ -2,7 +2,8 @@
 //!
 //! A reader turns a log (bytes the caller passes: this crate opens no file and reads no
 //! clock) into a [`Log`]: every numeric field as its own timestamped series, named as the
-//! map names it (a CSV column; `MSG.Field` in an ArduSub DataFlash log). A log map
+//! map names it (a CSV column; `MSG.Field` in an ArduSub DataFlash log; `/topic:path` in
+//! a ROS 1 bag or an MCAP file such as a ROS 2 bag). A log map
 //! ([`map::LogMap`], TOML) says which fields are the lab's canonical signals and the
 //! vehicle's command channels and how to convert them; [`map::LogMap::apply`] gives the
 //! mapped series and [`map::MappedLog::lab_table`] the lab's table: one row per
@@ -207,7 +208,9 @@ pub struct ReadOptions {
     /// The time field: a CSV column; for DataFlash the name of the time field every
     /// message carries (`TimeUS`; a map's `"RCOU.TimeUS"` names it by its field part).
     /// `None`: CSV takes the first column named `time_s`, `time`, `t` or `timestamp`;
-    /// DataFlash takes `TimeUS` (µs) then `TimeMS` (ms).
+    /// DataFlash takes `TimeUS` (µs) then `TimeMS` (ms). ROS 1 bags and MCAP:
+    /// `@log_time` (the default) or a message path such as `/imu:header.stamp`
+    /// (see [`rostopic`]).
     pub time_field: Option<String>,
     /// Factor from the time field's unit to seconds (`None`: 1 for CSV; 1e-6 for
     /// `TimeUS`, 1e-3 for `TimeMS`).

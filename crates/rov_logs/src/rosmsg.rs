@@ -746,3 +746,88 @@ fn walk_field(
     }
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn collect(s: &Schema, wire: Wire, body: &[u8], paths: &[&str]) -> Vec<Option<f64>> {
+        let mut sel = Select::default();
+        for (i, p) in paths.iter().enumerate() {
+            assert!(sel.add(p, i));
+        }
+        let mut out = vec![None; paths.len()];
+        decode(s, wire, body, &sel, &mut |k, v| {
+            if let Key::Slot(i) = k {
+                out[i] = Some(v);
+            }
+        })
+        .unwrap();
+        out
+    }
+
+    #[test]
+    fn definitions_with_constants_defaults_bounds_and_dependencies() {
+        let text = "# comment\nuint8 MODE_A=1\nuint8 MODE_B = 2 # two\nstring<=8 name \"x\"\n\
+                    int32[<=4] small\nVec v\nfloat64 k 0.5\nstring S=a#b\n\
+                    ===\nMSG: pkg/Vec\nfloat32 x\nfloat64 y\n";
+        let s = Schema::parse("pkg/msg/Top", text).unwrap();
+        let names: Vec<&str> = s.defs[0].fields.iter().map(|f| f.name.as_str()).collect();
+        assert_eq!(names, ["name", "small", "v", "k"]);
+        assert_eq!(s.defs[0].fields[1].arr, Arr::Seq);
+        assert!(s.has_path("v.y") && s.has_path("small[3]") && s.has_path("k"));
+        assert!(!s.has_path("name") && !s.has_path("v.z") && !s.has_path("v"));
+        assert!(matches!(
+            Schema::parse("a/B", "c/D x\n"),
+            Err(MsgError::UnknownType(_))
+        ));
+    }
+
+    #[test]
+    fn cdr_alignment_is_relative_to_the_body_and_xcdr2_aligns_8_byte_types_to_4() {
+        let s = Schema::parse("p/M", "uint8 a\nfloat64 b\n").unwrap();
+        // Classic CDR: a at 0, b at 8.
+        let mut body = vec![7u8, 0, 0, 0, 0, 0, 0, 0];
+        body.extend(2.5f64.to_le_bytes());
+        let mut payload = vec![0, 1, 0, 0];
+        payload.extend(&body);
+        let (w, b) = cdr_body(&payload).unwrap();
+        assert_eq!(collect(&s, w, b, &["a", "b"]), [Some(7.0), Some(2.5)]);
+        // XCDR2 little-endian: b at 4.
+        let mut payload = vec![0, 7, 0, 0, 7, 0, 0, 0];
+        payload.extend(2.5f64.to_le_bytes());
+        let (w, b) = cdr_body(&payload).unwrap();
+        assert_eq!(collect(&s, w, b, &["b"]), [Some(2.5)]);
+        // Big-endian.
+        let mut payload = vec![0, 0, 0, 0, 7, 0, 0, 0, 0, 0, 0, 0];
+        payload.extend(2.5f64.to_be_bytes());
+        let (w, b) = cdr_body(&payload).unwrap();
+        assert_eq!(collect(&s, w, b, &["b"]), [Some(2.5)]);
+        assert!(matches!(
+            cdr_body(&[0, 2, 0, 0]),
+            Err(MsgError::Encapsulation(2))
+        ));
+    }
+
+    #[test]
+    fn hostile_counts_and_self_containing_types_are_errors_not_panics() {
+        let s = Schema::parse("p/M", "float64[] d\n").unwrap();
+        let body = [0xff, 0xff, 0xff, 0x7f, 1, 2];
+        let sel = Select::all();
+        assert!(decode(&s, Wire::Ros1, &body, &sel, &mut |_, _| {}).is_err());
+        let r = Schema::parse("p/A", "A inner\n").unwrap();
+        assert_eq!(
+            decode(&r, Wire::Ros1, &[], &sel, &mut |_, _| {}),
+            Err(MsgError::TooDeep)
+        );
+        // ROS 1 time and a packed layout.
+        let t = Schema::parse("p/T", "time stamp\nuint16[2] c\n").unwrap();
+        let mut b = 5u32.to_le_bytes().to_vec();
+        b.extend(500_000_000u32.to_le_bytes());
+        b.extend([1, 0, 2, 0]);
+        assert_eq!(
+            collect(&t, Wire::Ros1, &b, &["stamp", "c[1]"]),
+            [Some(5.5), Some(2.0)]
+        );
+    }
+}

@@ -125,6 +125,17 @@ fn ros1_bag_with_lz4_chunks_reads_the_same() {
 fn ros2_mcap_matches_rosbags_value_by_value() {
     let bytes = file("ros2.mcap");
     assert_eq!(Format::detect(&bytes), Some(Format::Mcap));
+    // The fixture holds both byte orders: /odom_be big-endian (CDR header 00 00).
+    for m in mcap::MessageStream::new(&bytes).unwrap() {
+        let m = m.unwrap();
+        let be = m.channel.topic == "/odom_be";
+        assert_eq!(
+            m.data[..2],
+            if be { [0, 0] } else { [0, 1] },
+            "{}",
+            m.channel.topic
+        );
+    }
     let log = compare(&bytes, "ros2", false);
     assert!(log.report.truncated.is_none(), "{:?}", log.report);
     assert!(log.report.unknown_types.is_empty());
