@@ -204,7 +204,7 @@ fn parse_lines(name: String, text: &str) -> Result<RawDef, MsgError> {
         if after.trim_start().starts_with('=') {
             continue; // a constant
         }
-        if fname.is_empty() {
+        if fname.is_empty() || !fname.chars().all(|c| c.is_ascii_alphanumeric() || c == '_') {
             return Err(MsgError::BadLine(line.into()));
         }
         let (base, arr) = match ty.split_once('[') {

@@ -115,7 +115,9 @@ impl Collector {
             Some(only) => {
                 for name in only.iter().filter(|n| n.starts_with(&prefix)) {
                     let path = name.get(prefix.len()..).unwrap_or("");
-                    if sel.add(path, slots.len()) {
+                    // A path has no `:` (field names are [A-Za-z0-9_]); this keeps
+                    // `/a:b:c` from naming a field of topic `/a`.
+                    if !path.contains(':') && sel.add(path, slots.len()) {
                         slots.push(name.clone());
                         wanted = true;
                     }
@@ -212,12 +214,13 @@ impl Collector {
             self.report.untimed_records += 1;
             return;
         };
-        for (s, v) in self.scratch.iter() {
+        // A NaN or infinite value is no sample (as an empty CSV cell).
+        for (s, v) in self.scratch.iter().filter(|(_, v)| v.is_finite()) {
             if let Some(name) = t.slots.get(*s) {
                 self.fields.entry(name.clone()).or_default().push(time, *v);
             }
         }
-        for (p, v) in named {
+        for (p, v) in named.into_iter().filter(|(_, v)| v.is_finite()) {
             self.fields
                 .entry(format!("{}:{p}", t.topic))
                 .or_default()
