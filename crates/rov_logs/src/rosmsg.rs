@@ -160,6 +160,11 @@ pub enum MsgError {
 /// Deepest nesting the walker follows.
 pub const MAX_DEPTH: usize = 32;
 
+/// A decode-everything walk ([`Select::all`], used to list a log's fields) gives array
+/// elements up to this index only, so an image's pixels do not become a million fields;
+/// a path naming a later element is read like any other.
+pub const ALL_MAX_ELEMENTS: usize = 16;
+
 fn normalize(name: &str) -> String {
     let parts: Vec<&str> = name.split('/').filter(|p| !p.is_empty()).collect();
     match parts.as_slice() {
@@ -732,12 +737,12 @@ fn walk_field(
     }
     for i in 0..n {
         let sub = if sel.all {
-            Some(sel)
+            (i < ALL_MAX_ELEMENTS).then_some(sel)
         } else {
             sel.index.get(&i)
         };
         let len0 = path.len();
-        if sel.all {
+        if sub.is_some() && sel.all {
             path.push_str(&format!("[{i}]"));
         }
         let r = walk_one(schema, f.ty, c, sub, path, sink, depth);
@@ -815,6 +820,20 @@ mod tests {
         let body = [0xff, 0xff, 0xff, 0x7f, 1, 2];
         let sel = Select::all();
         assert!(decode(&s, Wire::Ros1, &body, &sel, &mut |_, _| {}).is_err());
+        // A long array lists its first ALL_MAX_ELEMENTS elements in a full walk.
+        let mut long = 40u32.to_le_bytes().to_vec();
+        for k in 0..40 {
+            long.extend((k as f64).to_le_bytes());
+        }
+        let mut names = Vec::new();
+        decode(&s, Wire::Ros1, &long, &sel, &mut |k, _| {
+            if let Key::Path(p) = k {
+                names.push(p.to_string());
+            }
+        })
+        .unwrap();
+        assert_eq!(names.len(), ALL_MAX_ELEMENTS);
+        assert_eq!(collect(&s, Wire::Ros1, &long, &["d[39]"]), [Some(39.0)]);
         let r = Schema::parse("p/A", "A inner\n").unwrap();
         assert_eq!(
             decode(&r, Wire::Ros1, &[], &sel, &mut |_, _| {}),
