@@ -30,7 +30,7 @@ pub enum Prim {
     Bool,
     /// `int8`.
     I8,
-    /// `uint8`, `byte` (ROS 2), `char`.
+    /// `uint8`, `char`, `byte` in ROS 2 (an octet; in ROS 1 `byte` is `int8`).
     U8,
     /// `int16`.
     I16,
@@ -57,8 +57,9 @@ pub enum Prim {
 }
 
 impl Prim {
-    fn parse(s: &str) -> Option<Self> {
+    fn parse(s: &str, ros1: bool) -> Option<Self> {
         Some(match s {
+            "byte" if ros1 => Self::I8,
             "bool" => Self::Bool,
             "int8" => Self::I8,
             "uint8" | "byte" | "char" | "octet" => Self::U8,
@@ -237,8 +238,17 @@ const BUILTIN_TIME: [(&str, &str); 2] = [
 
 impl Schema {
     /// Parses a definition: `name` is the message's own type (`pkg/Name` or `pkg/msg/Name`),
-    /// `text` its definition with dependencies.
+    /// `text` its definition with dependencies; ROS 2's rules (`byte` unsigned).
     pub fn parse(name: &str, text: &str) -> Result<Self, MsgError> {
+        Self::parse_with(name, text, false)
+    }
+
+    /// As [`Schema::parse`], with ROS 1's rules (`byte` is `int8`).
+    pub fn parse_ros1(name: &str, text: &str) -> Result<Self, MsgError> {
+        Self::parse_with(name, text, true)
+    }
+
+    fn parse_with(name: &str, text: &str, ros1: bool) -> Result<Self, MsgError> {
         let mut raws: Vec<RawDef> = Vec::new();
         let mut cur_name = normalize(name);
         let mut cur_text = String::new();
@@ -299,7 +309,7 @@ impl Schema {
         for (i, r) in raws.iter().enumerate() {
             let mut fields = Vec::with_capacity(r.fields.len());
             for (ty, arr, fname) in &r.fields {
-                let t = match Prim::parse(ty) {
+                let t = match Prim::parse(ty, ros1) {
                     Some(p) => Ty::Prim(p),
                     None => {
                         Ty::Msg(find(&r.name, ty).ok_or_else(|| MsgError::UnknownType(ty.clone()))?)
@@ -839,6 +849,11 @@ mod tests {
             decode(&r, Wire::Ros1, &[], &sel, &mut |_, _| {}),
             Err(MsgError::TooDeep)
         );
+        // `byte`: int8 in ROS 1, an octet in ROS 2.
+        let b1 = Schema::parse_ros1("p/B", "byte x\n").unwrap();
+        let b2 = Schema::parse("p/B", "byte x\n").unwrap();
+        assert_eq!(collect(&b1, Wire::Ros1, &[0xff], &["x"]), [Some(-1.0)]);
+        assert_eq!(collect(&b2, Wire::Ros1, &[0xff], &["x"]), [Some(255.0)]);
         // ROS 1 time and a packed layout.
         let t = Schema::parse("p/T", "time stamp\nuint16[2] c\n").unwrap();
         let mut b = 5u32.to_le_bytes().to_vec();

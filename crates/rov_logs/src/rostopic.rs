@@ -101,7 +101,8 @@ impl Collector {
         }
         let schema = match &encoding {
             Encoding::Other(e) => Err(format!("encoding {e}")),
-            _ => Schema::parse(type_name, definition).map_err(|e| e.to_string()),
+            Encoding::Ros1 => Schema::parse_ros1(type_name, definition).map_err(|e| e.to_string()),
+            Encoding::Cdr => Schema::parse(type_name, definition).map_err(|e| e.to_string()),
         };
         let mut sel = Select::default();
         let mut slots = Vec::new();
