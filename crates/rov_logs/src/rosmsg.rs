@@ -411,8 +411,8 @@ pub fn parse_path(path: &str) -> Option<Vec<Seg>> {
 pub struct Select {
     /// Decode everything below.
     pub all: bool,
-    /// The value here goes to this slot.
-    pub slot: Option<usize>,
+    /// The value here goes to these slots (a path may be both a field and the time).
+    pub slots: Vec<usize>,
     names: BTreeMap<String, Select>,
     index: BTreeMap<usize, Select>,
 }
@@ -438,13 +438,15 @@ impl Select {
                 Seg::Index(i) => node.index.entry(i).or_default(),
             };
         }
-        node.slot = Some(slot);
+        if !node.slots.contains(&slot) {
+            node.slots.push(slot);
+        }
         true
     }
 
     /// Whether nothing is selected.
     pub fn is_empty(&self) -> bool {
-        !self.all && self.slot.is_none() && self.names.is_empty() && self.index.is_empty()
+        !self.all && self.slots.is_empty() && self.names.is_empty() && self.index.is_empty()
     }
 }
 
@@ -626,8 +628,8 @@ pub fn decode(
 }
 
 fn emit(sel: &Select, path: &str, v: f64, sink: &mut dyn FnMut(Key<'_>, f64)) {
-    if let Some(s) = sel.slot {
-        sink(Key::Slot(s), v);
+    for s in &sel.slots {
+        sink(Key::Slot(*s), v);
     }
     if sel.all {
         sink(Key::Path(path), v);

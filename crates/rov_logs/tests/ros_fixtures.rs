@@ -362,3 +362,29 @@ fn mcap_in_zstd_chunks_reads_the_same_and_counts_undecodable_channels() {
         .sum();
     assert_eq!(unknown, 11, "{:?}", log.report.unknown_types);
 }
+
+/// A path that is both the time and a mapped field gives both (found by the fuzz target
+/// `log_ros1`: the time's slot replaced the field's).
+#[test]
+fn the_time_path_can_also_be_a_field() {
+    let bytes = file("ros1.bag");
+    let log = read(
+        &bytes,
+        None,
+        "a",
+        &opts(
+            "/imu:header.stamp",
+            [
+                "/odom:header.stamp".to_string(),
+                "/imu:header.stamp".to_string(),
+            ]
+            .into_iter(),
+        ),
+    )
+    .unwrap();
+    for f in ["/odom:header.stamp", "/imu:header.stamp"] {
+        let s = &log.fields[f];
+        assert!(!s.is_empty());
+        assert_eq!(s.t_s, s.v, "{f}: timed by its own stamp");
+    }
+}
