@@ -388,3 +388,53 @@ fn the_time_path_can_also_be_a_field() {
         assert_eq!(s.t_s, s.v, "{f}: timed by its own stamp");
     }
 }
+
+/// The shipped mavros map (config/maps/mavros_ardusub.toml) on the fixtures, its topics
+/// renamed to the fixtures' (/imu, /depth, /rc_out carry the same message types) and the
+/// fixtures' four RC channels: depth from rel_alt, FLU rates and the ENU quaternion to
+/// NED, PWM to percent.
+#[test]
+fn shipped_mavros_map_reads_ros_bags() {
+    let text = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../config/maps/mavros_ardusub.toml"
+    ))
+    .unwrap();
+    let cut = text.find("[commands.thr5]").unwrap();
+    let end = text.find("[signals]").unwrap();
+    let text = format!("{}{}", &text[..cut], &text[end..])
+        .replace("/mavros/imu/data", "/imu")
+        .replace("/mavros/global_position/rel_alt", "/depth")
+        .replace("/mavros/rc/out", "/rc_out");
+    let map = LogMap::parse(&text, "mavros_ardusub.toml").unwrap();
+    let exp = expected("ros1");
+    for name in ["ros1.bag", "ros2.mcap"] {
+        let m = map.read_apply(&file(name), name).unwrap();
+        let d = &m.signals["depth_m"];
+        let data = nums(&exp["/depth:data"]["v"]);
+        assert_eq!(d.len(), data.len());
+        for (x, e) in d.v.iter().zip(&data) {
+            assert!((x + e.unwrap()).abs() < 1e-12);
+        }
+        let h = &m.signals["heading_deg"];
+        assert_eq!(h.len(), 300);
+        for (k, x) in h.v.iter().enumerate() {
+            // The fixture's orientation: ENU yaw a = 0.3·sin(0.05k) rad; heading 90° − a.
+            let a = (0.3 * (0.05 * k as f64).sin()).to_degrees();
+            let dh = (x - (90.0 - a)).rem_euclid(360.0);
+            assert!(dh.min(360.0 - dh) < 1e-6, "{name} heading {k}: {x}");
+        }
+        let r = &m.signals["yaw_rate_dps"];
+        let z = nums(&exp["/imu:angular_velocity.z"]["v"]);
+        for (x, e) in r.v.iter().zip(&z) {
+            assert!((x + e.unwrap().to_degrees()).abs() < 1e-9);
+        }
+        let thr1 = &m.commands["thr1"];
+        let ch = nums(&exp["/rc_out:channels[0]"]["v"]);
+        assert_eq!(thr1.len(), ch.len());
+        for (x, us) in thr1.v.iter().zip(&ch) {
+            assert!((x - (us.unwrap() - 1500.0) / 4.0).abs() < 1e-9);
+        }
+        assert_eq!(m.commands.len(), 4);
+    }
+}
