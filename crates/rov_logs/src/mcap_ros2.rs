@@ -34,39 +34,52 @@ pub fn read(bytes: &[u8], label: &str, opts: &ReadOptions) -> Result<Log, LogErr
     let mut col = Collector::new(opts);
     let mut known: HashSet<u16> = HashSet::new();
     let mut truncated = None;
-    loop {
-        let msg = match stream.next() {
-            None => break,
-            Some(Ok(m)) => m,
-            Some(Err(e)) => {
-                truncated = Some(format!(
-                    "MCAP stream ended after {} message(s): {e}",
-                    col.report.records
-                ));
-                break;
+    // mcap 0.26's linear reader subtracts a record's length from what remains of an
+    // uncompressed chunk without checking it (sans_io/linear_reader.rs): a record claiming
+    // more than its chunk holds overflows, a panic where overflow checks are on (debug
+    // builds). Found by the fuzz target `log_mcap`; until the crate checks it, the read is
+    // guarded here and ends as a corrupt file, keeping what was read before.
+    let guarded = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        loop {
+            let msg = match stream.next() {
+                None => break,
+                Some(Ok(m)) => m,
+                Some(Err(e)) => {
+                    truncated = Some(format!(
+                        "MCAP stream ended after {} message(s): {e}",
+                        col.report.records
+                    ));
+                    break;
+                }
+            };
+            let id = msg.header.channel_id;
+            if !known.contains(&id)
+                && let Some(ch) = stream.get_channel(id)
+            {
+                known.insert(id);
+                let (name, schema_enc, text) = match &ch.schema {
+                    Some(s) => (
+                        s.name.clone(),
+                        s.encoding.clone(),
+                        String::from_utf8_lossy(&s.data).into_owned(),
+                    ),
+                    None => (String::from("(no schema)"), String::new(), String::new()),
+                };
+                let enc = match (ch.message_encoding.as_str(), schema_enc.as_str()) {
+                    ("cdr", "ros2msg") => Encoding::Cdr,
+                    ("ros1", "ros1msg") => Encoding::Ros1,
+                    (m, s) => Encoding::Other(format!("{m} with schema {s}")),
+                };
+                col.connection(u32::from(id), &ch.topic, &name, &text, enc);
             }
-        };
-        let id = msg.header.channel_id;
-        if !known.contains(&id)
-            && let Some(ch) = stream.get_channel(id)
-        {
-            known.insert(id);
-            let (name, schema_enc, text) = match &ch.schema {
-                Some(s) => (
-                    s.name.clone(),
-                    s.encoding.clone(),
-                    String::from_utf8_lossy(&s.data).into_owned(),
-                ),
-                None => (String::from("(no schema)"), String::new(), String::new()),
-            };
-            let enc = match (ch.message_encoding.as_str(), schema_enc.as_str()) {
-                ("cdr", "ros2msg") => Encoding::Cdr,
-                ("ros1", "ros1msg") => Encoding::Ros1,
-                (m, s) => Encoding::Other(format!("{m} with schema {s}")),
-            };
-            col.connection(u32::from(id), &ch.topic, &name, &text, enc);
+            col.message(u32::from(id), msg.header.log_time, &msg.data);
         }
-        col.message(u32::from(id), msg.header.log_time, &msg.data);
+    }));
+    if guarded.is_err() {
+        truncated = Some(format!(
+            "the MCAP reader failed on a malformed record after {} message(s)",
+            col.report.records
+        ));
     }
     let mut log = col.finish();
     log.report.truncated = truncated;

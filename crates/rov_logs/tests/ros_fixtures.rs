@@ -438,3 +438,33 @@ fn shipped_mavros_map_reads_ros_bags() {
         assert_eq!(m.commands.len(), 4);
     }
 }
+
+/// An input the fuzz target `log_mcap` found: an uncompressed chunk whose record claims
+/// more than the chunk holds overflows inside mcap 0.26 (a panic with overflow checks, as
+/// in this debug test build). The read ends as a corrupt file instead.
+#[test]
+fn mcap_chunk_record_longer_than_its_chunk_is_an_error_not_a_crash() {
+    let mut m = mcap::MAGIC.to_vec();
+    // Chunk record (op 0x06): times, uncompressed size, CRC 0, no compression, and
+    // 13 bytes of records, of which the first claims 4 096 bytes.
+    let mut body = Vec::new();
+    body.extend(0u64.to_le_bytes());
+    body.extend(0u64.to_le_bytes());
+    body.extend(13u64.to_le_bytes());
+    body.extend(0u32.to_le_bytes());
+    body.extend(0u32.to_le_bytes()); // compression "" (length 0)
+    body.extend(13u64.to_le_bytes());
+    body.push(0x05);
+    body.extend(4096u64.to_le_bytes());
+    body.extend([0u8; 4]);
+    body.extend([0u8; 4200]);
+    m.push(0x06);
+    m.extend((body.len() as u64).to_le_bytes());
+    m.extend(body);
+    let log = read(&m, Some(Format::Mcap), "bad.mcap", &ReadOptions::default()).unwrap();
+    let said = log.report.truncated.clone().unwrap_or_default();
+    assert!(
+        said.contains("malformed") || said.contains("ended"),
+        "{said}"
+    );
+}
