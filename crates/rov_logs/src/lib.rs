@@ -3,7 +3,8 @@
 //! A reader turns a log (bytes the caller passes: this crate opens no file and reads no
 //! clock) into a [`Log`]: every numeric field as its own timestamped series, named as the
 //! map names it (a CSV column; `MSG.Field` in an ArduSub DataFlash log; `MESSAGE.field` in
-//! a MAVLink tlog). A log map
+//! a MAVLink tlog; `/topic:path` in a ROS 1 bag or an MCAP file such as a ROS 2 bag). A
+//! log map
 //! ([`map::LogMap`], TOML) says which fields are the lab's canonical signals and the
 //! vehicle's command channels and how to convert them; [`map::LogMap::apply`] gives the
 //! mapped series and [`map::MappedLog::lab_table`] the lab's table: one row per
@@ -22,6 +23,10 @@
 pub mod csv;
 pub mod dataflash;
 pub mod map;
+pub mod mcap_ros2;
+pub mod ros1;
+pub mod rosmsg;
+pub mod rostopic;
 pub mod tlog;
 
 use std::collections::BTreeMap;
@@ -37,11 +42,15 @@ pub enum Format {
     DataFlash,
     /// MAVLink telemetry log (`.tlog`): timestamped MAVLink v1/v2 frames.
     Tlog,
+    /// ROS 1 bag (`#ROSBAG V2.0`).
+    Ros1,
+    /// MCAP: a ROS 2 bag (CDR messages) or any MCAP with ROS 1 or CDR messages.
+    Mcap,
 }
 
 impl Format {
     /// Every format, as the map's `format` key spells it.
-    pub const NAMES: [&'static str; 3] = ["csv", "dataflash", "tlog"];
+    pub const NAMES: [&'static str; 5] = ["csv", "dataflash", "tlog", "ros1", "mcap"];
 
     /// Parses the map's `format` value.
     pub fn parse(s: &str) -> Option<Self> {
@@ -49,6 +58,8 @@ impl Format {
             "csv" | "tsv" => Some(Self::Csv),
             "dataflash" | "bin" => Some(Self::DataFlash),
             "tlog" | "mavlink" => Some(Self::Tlog),
+            "ros1" | "bag" | "rosbag" => Some(Self::Ros1),
+            "mcap" | "ros2" => Some(Self::Mcap),
             _ => None,
         }
     }
@@ -59,17 +70,26 @@ impl Format {
             Self::Csv => "csv",
             Self::DataFlash => "dataflash",
             Self::Tlog => "tlog",
+            Self::Ros1 => "ros1",
+            Self::Mcap => "mcap",
         }
     }
 
     /// Detects the format from the first bytes of a log: a DataFlash log starts with its
-    /// record head `A3 95` and an FMT record (type 128); a tlog with a timestamp and a MAVLink
-    /// frame whose CRC checks ([`tlog::looks_like`]); text is taken as CSV/TSV.
+    /// record head `A3 95` and an FMT record (type 128); a ROS 1 bag with `#ROSBAG V2.0`,
+    /// an MCAP file with its magic `89 M C A P 30 0D 0A`; a tlog with a timestamp and a
+    /// MAVLink frame whose CRC checks ([`tlog::looks_like`]); text is taken as CSV/TSV.
     pub fn detect(bytes: &[u8]) -> Option<Self> {
         if bytes.len() >= 3
             && bytes[..3] == [dataflash::HEAD1, dataflash::HEAD2, dataflash::FMT_TYPE]
         {
             return Some(Self::DataFlash);
+        }
+        if bytes.starts_with(ros1::MAGIC) {
+            return Some(Self::Ros1);
+        }
+        if bytes.starts_with(mcap_ros2::MAGIC) {
+            return Some(Self::Mcap);
         }
         if tlog::looks_like(bytes) {
             return Some(Self::Tlog);
@@ -125,6 +145,8 @@ pub struct ReadReport {
     pub skipped_bytes: usize,
     /// Where the log ended early (truncated or corrupted mid-record), in words.
     pub truncated: Option<String>,
+    /// Other things a reader says about how it read the log (e.g. which time it used).
+    pub notes: Vec<String>,
 }
 
 impl ReadReport {
@@ -169,6 +191,7 @@ impl ReadReport {
         if let Some(t) = &self.truncated {
             out.push(format!("read to the last good record: {t}"));
         }
+        out.extend(self.notes.iter().cloned());
         out
     }
 }
@@ -198,6 +221,9 @@ pub struct ReadOptions {
     /// message's own field of that name, see [`tlog`]).
     /// `None`: CSV takes the first column named `time_s`, `time`, `t` or `timestamp`;
     /// DataFlash takes `TimeUS` (µs) then `TimeMS` (ms); a tlog its record timestamps.
+    /// ROS 1 bags and MCAP:
+    /// `@log_time` (the default) or a message path such as `/imu:header.stamp`
+    /// (see [`rostopic`]).
     pub time_field: Option<String>,
     /// Factor from the time field's unit to seconds (`None`: 1 for CSV; 1e-6 for
     /// `TimeUS`, 1e-3 for `TimeMS`; for a tlog 1e-6 for the record timestamp or a field
@@ -278,5 +304,7 @@ pub fn read(
         Format::Csv => csv::read(bytes, label, opts),
         Format::DataFlash => dataflash::read(bytes, label, opts),
         Format::Tlog => tlog::read(bytes, label, opts),
+        Format::Ros1 => ros1::read(bytes, label, opts),
+        Format::Mcap => mcap_ros2::read(bytes, label, opts),
     }
 }

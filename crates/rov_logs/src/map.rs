@@ -1,10 +1,11 @@
 //! The log map: how a log's fields become the lab's signals and command channels.
 //!
 //! ```toml
-//! format = "csv"          # csv | dataflash | tlog; optional: detected from the log's first bytes
+//! format = "csv"          # csv | dataflash | tlog | ros1 | mcap; optional: detected from the log's first bytes
 //! [time]
 //! field = "time_s"        # csv column; dataflash "MSG.TimeUS" (every message's own time field);
-//!                         # tlog "tlog.timestamp_us" (record time, the default) or "MESSAGE.field"
+//!                         # tlog "tlog.timestamp_us" (record time, the default) or "MESSAGE.field";
+//!                         # ros1/mcap "@log_time" (default) or "/imu:header.stamp" (see rostopic)
 //! scale = 1.0             # to seconds (default 1; 1e-6 for a DataFlash TimeUS or tlog µs)
 //! [commands.thr1]         # a command channel of the vehicle file (any name)
 //! field = "thr1_pwm_us"
@@ -16,6 +17,10 @@
 //! pitch_deg = { field = "pitch", unit = "rad", scale = -1.0 }
 //! heading_deg = { quaternion = ["qw", "qx", "qy", "qz"], frame = "enu" }
 //! depth_m = { pressure_pa = "BARO[1].Press", density_kg_m3 = 1000.0 }
+//! # ROS 1 bags and MCAP (ROS 2 bags): fields are "/topic:path"
+//! yaw_rate_dps = { field = "/imu:angular_velocity.z", unit = "rad", frame = "flu" }
+//! [commands.thr3]
+//! field = "/mavros/rc/out:channels[2]"
 //! ```
 //!
 //! A signal's value is computed in this order: the field (or the pressure, or the
