@@ -306,3 +306,25 @@ fn signed_v2_frames_are_read() {
     let want = expected(None);
     assert_eq!(log.fields["ATTITUDE.roll"].v, want["ATTITUDE.roll"].v);
 }
+
+/// The shipped ArduSub tlog map (config/maps/ardusub_tlog.toml) reads the pymavlink log:
+/// every field it names exists with MAVLink's spelling, six motor channels and the seven
+/// signals come out, and the heading is ATTITUDE.yaw in degrees.
+#[test]
+fn shipped_ardusub_tlog_map_reads_the_pymavlink_log() {
+    let text = include_str!("../../../config/maps/ardusub_tlog.toml");
+    let m = LogMap::parse(text, "ardusub_tlog.toml").unwrap();
+    let mapped = m.read_apply(TLOG, "pymavlink.tlog").unwrap();
+    assert_eq!(mapped.commands.len(), 6);
+    assert_eq!(mapped.signals.len(), 7);
+    let want = expected(None);
+    let yaw = &want["ATTITUDE.yaw"];
+    let got = &mapped.signals["heading_deg"];
+    assert_eq!(got.len(), yaw.len());
+    for (g, e) in got.v.iter().zip(&yaw.v) {
+        assert!((g - e.to_degrees()).abs() < 1e-9, "{g} vs {e}");
+    }
+    let table = mapped.lab_table();
+    assert!(table.t_s.len() > 10);
+    assert!(table.signals["depth_m"].iter().any(|d| d.is_finite()));
+}
