@@ -178,6 +178,8 @@ pub struct StationApp {
     pub(crate) main_view: Option<Box<dyn crate::fly::MainView>>,
     /// The V key's choice: the instrument-only layout even when a main view exists.
     pub(crate) instruments_only: bool,
+    /// O: the camera picture without the HUD (the status strip stays).
+    pub(crate) hud_hidden: bool,
     /// The camera picture's texture and latency figures.
     pub(crate) video_pane: crate::video::VideoPane,
     /// The `[video]` settings being edited (Settings tab, Connection tab's devices).
@@ -258,6 +260,7 @@ impl StationApp {
             recordings: Vec::new(),
             main_view: None,
             instruments_only: false,
+            hud_hidden: false,
             video_pane: crate::video::VideoPane::default(),
             video_settings: rov_station::runtime::video::VideoSettings::default(),
             capture_devices: None,
@@ -710,6 +713,9 @@ impl StationApp {
             };
             (step, i.key_pressed(Key::V))
         });
+        if ui.input(|i| i.key_pressed(Key::O)) {
+            self.hud_hidden = !self.hud_hidden;
+        }
         if let Some(c) = step {
             self.replay_cmd(c);
         }

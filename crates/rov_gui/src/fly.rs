@@ -184,10 +184,15 @@ fn hud_overlay(app: &mut StationApp, ui: &mut Ui, rect: Rect, v: &StationView) {
         rect.min + vec2(m, m),
         vec2(tape_w, (rect.height() - 2.0 * m).max(100.0)),
     );
+    // The bottom 30 px stay free for the status strip (REC, link, video, alarms): the
+    // thrust box sits above it so no chip covers the thrust values.
     let bars = Rect::from_min_max(
-        pos2(rect.max.x - 150.0 - m, rect.max.y - 170.0 - m),
-        rect.max - vec2(m, m),
+        pos2(rect.max.x - 150.0 - m, rect.max.y - 200.0 - m),
+        rect.max - vec2(m, m + 30.0),
     );
+    if app.hud_hidden {
+        return;
+    }
     // The bottom 30 px stay free for the status strip (REC, link, video, alarms).
     let mid = Rect::from_min_max(
         pos2(left.max.x + m, top.max.y + m),

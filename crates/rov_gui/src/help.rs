@@ -8,7 +8,7 @@ use crate::app::StationApp;
 use crate::theme;
 
 /// The keyboard bindings: (keys, what).
-pub const KEYS: [(&str, &str); 16] = [
+pub const KEYS: [(&str, &str); 17] = [
     ("Space (hold 1 s)", "arm"),
     ("Esc", "disarm"),
     ("W / S", "forward / astern"),
@@ -20,6 +20,7 @@ pub const KEYS: [(&str, &str); 16] = [
     ("M", "dive-log marker"),
     ("N", "type a dive-log note (Enter records it)"),
     ("V", "camera view / instruments only"),
+    ("O", "camera: hide / show the HUD"),
     (", / .", "replay: one control tick back / forward"),
     ("drag a tape", "set the depth or heading setpoint"),
     ("F1 or ?", "this window"),
