@@ -370,3 +370,95 @@ fn the_scanner_skips_test_modules_and_sees_the_rest() {
     let lines: Vec<usize> = non_test_lines(src).iter().map(|(n, _)| *n).collect();
     assert_eq!(lines, vec![1, 8]);
 }
+
+/// A crate that lists its test binaries (`autotests = false`: the one-binary
+/// `tests/it/main.rs` layout, or the scenarios' explicit `[[test]]`s) would silently skip
+/// a test file that nobody declared. Every `tests/*.rs` must be a declared test target,
+/// and every `tests/it/*.rs` a `mod` of `tests/it/main.rs`.
+#[test]
+fn no_test_file_is_left_out_of_a_test_binary() {
+    let mut wrong = Vec::new();
+    let ws: toml::Table = std::fs::read_to_string(root().join("Cargo.toml"))
+        .expect("Cargo.toml")
+        .parse()
+        .expect("the workspace manifest parses");
+    for p in ws["workspace"]["members"].as_array().expect("members") {
+        let Some(p) = p.as_str() else { continue };
+        let dir = root().join(p);
+        let m: toml::Table = std::fs::read_to_string(dir.join("Cargo.toml"))
+            .expect("manifest")
+            .parse()
+            .expect("manifest parses");
+        let autotests = m["package"]
+            .get("autotests")
+            .and_then(toml::Value::as_bool)
+            .unwrap_or(true);
+        if autotests {
+            continue;
+        }
+        // The scenarios crate keeps its tests beside its manifest.
+        let tests_dir = if dir.join("tests").is_dir() {
+            dir.join("tests")
+        } else {
+            dir.clone()
+        };
+        let declared: BTreeSet<PathBuf> = m
+            .get("test")
+            .and_then(toml::Value::as_array)
+            .map(|a| {
+                a.iter()
+                    .filter_map(|t| t.get("path").and_then(toml::Value::as_str))
+                    .map(|s| dir.join(s))
+                    .collect()
+            })
+            .unwrap_or_default();
+        let Ok(rd) = std::fs::read_dir(&tests_dir) else {
+            continue;
+        };
+        for e in rd.flatten() {
+            let f = e.path();
+            let is_rs = f.extension().is_some_and(|x| x == "rs");
+            let is_lib = f
+                .file_name()
+                .is_some_and(|n| n == "lib.rs" || n == "build.rs");
+            if is_rs && !is_lib && !declared.contains(&f) {
+                wrong.push(format!(
+                    "{}: a test file that no [[test]] of {p}/Cargo.toml declares",
+                    f.display()
+                ));
+            }
+        }
+        let it = tests_dir.join("it");
+        if let Ok(main) = std::fs::read_to_string(it.join("main.rs")) {
+            for e in std::fs::read_dir(&it).into_iter().flatten().flatten() {
+                let f = e.path();
+                let Some(stem) = f.file_stem().and_then(|s| s.to_str()) else {
+                    continue;
+                };
+                let module = if f.is_dir() {
+                    f.join("mod.rs").exists()
+                } else {
+                    f.extension().is_some_and(|x| x == "rs")
+                };
+                if stem == "main" || !module {
+                    continue;
+                }
+                if !main
+                    .lines()
+                    .any(|l| l.trim().trim_start_matches("pub ") == format!("mod {stem};"))
+                {
+                    wrong.push(format!(
+                        "{}: not a `mod {stem};` of {}",
+                        f.display(),
+                        it.join("main.rs").display()
+                    ));
+                }
+            }
+        }
+    }
+    assert!(
+        wrong.is_empty(),
+        "test files left out:\n  {}",
+        wrong.join("\n  ")
+    );
+}

@@ -10,7 +10,7 @@
 //! truth, observer, pilot, autopilot, thrust, the pose topics; status and link stats at
 //! 1 Hz; an event every 10 s) is generated once into a temp dir.
 
-#[path = "../tests/common/mod.rs"]
+#[path = "../tests/it/common/mod.rs"]
 mod common;
 
 use std::hint::black_box;

@@ -17,7 +17,7 @@ use rov_video::VideoFrame;
 use rov_video::simcam::{CameraModel, CameraPose, SimCamera, SimScene};
 
 /// The RTP sender shared with rov_video's tests (one copy).
-#[path = "../../rov_video/tests/common/rtp.rs"]
+#[path = "../../rov_video/tests/it/common/rtp.rs"]
 mod rtp;
 use rtp::{free_udp_port, udp_sender};
 

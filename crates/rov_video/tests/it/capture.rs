@@ -2,15 +2,13 @@
 //! process that is killed and restarted, files with a size change, bad inputs, and
 //! consumers that stall.
 
-mod common;
-
 use std::process::Command;
 use std::sync::Arc;
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
-use common::rtp::{free_udp_port, udp_sender};
-use common::{Recorder, encode, sim_camera, wait_for};
+use crate::common::rtp::{free_udp_port, udp_sender};
+use crate::common::{Recorder, encode, sim_camera, wait_for};
 use rov_video::simcam::CameraPose;
 use rov_video::{
     Capture, CaptureConfig, CaptureState, Encoder, EncoderConfig, FrameSink, OutputSize,

@@ -3,11 +3,11 @@
 //! and the camera video: written, read by time, from a key frame, corrupted messages
 //! skipped and counted, kept by recovery.
 
-mod common;
+use crate::common;
 
 use std::collections::BTreeMap;
 
-use common::{info, record};
+use crate::common::{info, record};
 use rov_session::foxglove::{VehiclePose, decode_video, encode, video_message};
 use rov_session::{
     NavRecord, Session, SessionError, SessionWriter, TruthRecord, WriterOptions, open, recover,

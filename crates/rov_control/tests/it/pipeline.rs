@@ -1,7 +1,7 @@
 //! Whole-pipeline properties: C1 (finite, bounded), C2 (no state poisoning), C3 (slew),
 //! C5 (bumpless engage).
 
-mod common;
+use crate::common;
 
 use proptest::prelude::*;
 use rov_control::{

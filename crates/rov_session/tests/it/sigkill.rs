@@ -7,13 +7,13 @@
 //! that what loads is a gap-free prefix, and that `recover` writes a file the official
 //! Python reader opens.
 
-mod common;
+use crate::common;
 
 use std::io::{BufRead, BufReader};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-use common::{python_read, tick, write_tick};
+use crate::common::{python_read, tick, write_tick};
 use rov_session::{Damage, NavRecord, SessionWriter, open, recover};
 
 const CHILD_ENV: &str = "ROV_SESSION_SIGKILL_CHILD";
@@ -65,7 +65,7 @@ fn sigkill_loses_at_most_half_a_second() {
         let path = dir.path().join(format!("killed-{run}.mcap"));
         let mut child = Command::new(&exe)
             .args([
-                "sigkill_child_recorder",
+                "sigkill::sigkill_child_recorder",
                 "--exact",
                 "--nocapture",
                 "--test-threads=1",

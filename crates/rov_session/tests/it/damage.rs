@@ -1,11 +1,9 @@
 //! Truncated, corrupted and foreign files: clear errors or an exact prefix, never a panic;
 //! recovery writes a complete file and leaves the input alone.
 
-mod common;
-
 use std::path::Path;
 
-use common::{python_read, record};
+use crate::common::{python_read, record};
 use rov_session::{Damage, Session, SessionError, WriterOptions, open, recover, recovered_path};
 
 type Msg = (String, u64, u32, Vec<u8>);

@@ -1,8 +1,6 @@
 //! Measurement CSV export and import.
 
-mod common;
-
-use common::{info, record};
+use crate::common::{info, record};
 use rov_session::{
     NavRecord, SessionError, SessionWriter, ThrustRecord, WriterOptions, export_csv, import_csv,
     open,

@@ -2,9 +2,7 @@
 //! parameters (a quick check that runs without the 6-DOF simulator). Sensor path:
 //! integer mbar pressure and heading ×10 integers, plus noise.
 
-mod common;
-
-use common::{AxisPlant, Rng, StepMetrics, step_metrics};
+use crate::common::{AxisPlant, Rng, StepMetrics, step_metrics};
 use rov_control::{
     ControlConfig, Controller, Measurements, ModeCommand, ModelChoice, ModelSet, PilotInput,
     PlantModel,

@@ -5,9 +5,7 @@
 //! A small seeded PRNG keeps the run deterministic and fast (no proptest
 //! overhead per case): streams are short (mostly < 100 bytes).
 
-mod common;
-
-use common::hex;
+use crate::common::hex;
 use firmware_proto::{
     Accept, DeframeErrorKind, Deframer, DeframerConfig, Direction, Event, Frame, Header,
     LengthField, Message, NodeId, encode_frame,

@@ -2,9 +2,7 @@
 //! stream with garbage, gives the same events at every chunk size 1..=len, byte
 //! by byte with realistic timestamps, and through the pull API.
 
-mod common;
-
-use common::{Ev, assert_counters_consistent, hex, run_chunked, vectors};
+use crate::common::{Ev, assert_counters_consistent, hex, run_chunked, vectors};
 use firmware_proto::{DeframeErrorKind, Deframer, DeframerConfig, Event, Frame, Kind, classify};
 
 fn both() -> Deframer {

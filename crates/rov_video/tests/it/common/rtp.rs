@@ -1,7 +1,7 @@
 //! The RTP/H.264 sender the video tests receive from (a companion computer's stream),
 //! and a free port for it. The one copy: rov_video's tests reach it through
 //! `common`, rov_station's video test includes this file by path
-//! (`#[path = "../../rov_video/tests/common/rtp.rs"]`).
+//! (`#[path = "../../rov_video/tests/it/common/rtp.rs"]`).
 
 use std::process::{Child, Command, Stdio};
 

@@ -1,10 +1,8 @@
 //! Sessions with gaps, out-of-order timestamps or unknown topics load, with warnings.
 
-mod common;
-
 use std::collections::BTreeMap;
 
-use common::{info, tick, write_tick};
+use crate::common::{info, tick, write_tick};
 use rov_session::{Decoded, NavRecord, SessionError, SessionWriter, ThrustRecord, open};
 
 #[test]

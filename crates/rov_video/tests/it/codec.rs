@@ -3,12 +3,10 @@
 //! per frame, no B-frames, SPS/PPS with every key frame, a key frame at least every 2 s),
 //! size changes, the bit rate budget, corrupt units, and seeking.
 
-mod common;
-
 use std::sync::Arc;
 use std::time::Duration;
 
-use common::{encode, sim_camera};
+use crate::common::{encode, sim_camera};
 use rov_video::annexb::{self, nal};
 use rov_video::simcam::{CameraModel, CameraPose, SimCamera, SimScene};
 use rov_video::stamp;

@@ -2,7 +2,7 @@
 
 use rov_control::ControlConfig;
 
-const STATION: &str = include_str!("../../../config/station.toml");
+const STATION: &str = include_str!("../../../../config/station.toml");
 
 #[test]
 fn shipped_station_file_equals_defaults() {

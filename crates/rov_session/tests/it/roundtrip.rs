@@ -1,11 +1,11 @@
 //! Round trip of every topic, cross-checked with the `mcap` crate's reader and the
 //! official Python reader.
 
-mod common;
+use crate::common;
 
 use std::collections::BTreeMap;
 
-use common::{info, python_read, record};
+use crate::common::{info, python_read, record};
 use rov_session::{
     AutopilotRecord, Decoded, Direction, EventRecord, LinkRecord, NavRecord, ObserverRecord,
     PilotRecord, Record, SessionInfo, StatusRecord, ThrustRecord, Topic, TruthRecord,

@@ -2,10 +2,8 @@
 //! `common::sim6`), with each model's feedforward: step response, disturbances,
 //! feedforward benefit, observer accuracy.
 
-mod common;
-
-use common::sim6::{Disturbance, Sim6};
-use common::{StepMetrics, rms, step_metrics};
+use crate::common::sim6::{Disturbance, Sim6};
+use crate::common::{StepMetrics, rms, step_metrics};
 use rov_control::angle::wrap_deg_180;
 use rov_control::{ControlConfig, Controller, ModeCommand, ModelChoice, ModelSet, PilotInput};
 

@@ -2,9 +2,7 @@
 //! from field values gives the bytes, decoding the bytes gives the field values.
 //! Plus the corrupted cases C1–C6 with the "Recommended" behaviour.
 
-mod common;
-
-use common::{Ev, assert_counters_consistent, hex, run_chunked, v18};
+use crate::common::{Ev, assert_counters_consistent, hex, run_chunked, v18};
 use firmware_proto::msg::{CONFIG_PAYLOAD_LEN, HardwareConfig, VALID_APP_FLAG};
 use firmware_proto::{
     BootloaderBlock, ConfigData, ControlBlock, CsrDump, CsrRead, DeframeErrorKind, Deframer,

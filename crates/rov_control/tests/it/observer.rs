@@ -1,8 +1,6 @@
 //! Observer tests on synthetic truth (D1, D3, C2).
 
-mod common;
-
-use common::{Rng, rms};
+use crate::common::{Rng, rms};
 use nalgebra::Matrix3;
 use rov_control::{AxisDynamics, ChannelNoise, KalmanChannel, SampleOutcome};
 

@@ -3,9 +3,7 @@
 //! duration), the `.ass` parses with the telemetry lines, the overlay draws the text
 //! into the picture, and a session without a key frame is a clear error.
 
-mod common;
-
-use common::{encode, ffmpeg_frame, ffprobe};
+use crate::common::{encode, ffmpeg_frame, ffprobe};
 use rov_video::simcam::{CameraModel, CameraPose, SimCamera, SimScene};
 use rov_video::subtitles::{TelemetryText, lines_from_samples, telemetry_text};
 use rov_video::{AccessUnit, EncoderConfig, ExportOptions, VideoError, export_mp4};

@@ -1,8 +1,6 @@
 //! Playback: play/pause, speed, seek and step on wall time given as an argument.
 
-mod common;
-
-use common::record;
+use crate::common::record;
 use rov_session::{MAX_SPEED, MIN_SPEED, Playback, Session, WriterOptions, open};
 
 fn session(ticks: u64) -> (tempfile::TempDir, Session) {
