@@ -138,16 +138,18 @@ impl DepthTape {
         } else {
             (1.0, "m")
         };
+        // Headers at the two ends of the row: "THR" right-aligned over its bar, never
+        // reaching into the tape's header (issue 25 item 4).
         painter.text(
-            pos2(tape.center().x, rect.min.y + 11.0),
-            Align2::CENTER_CENTER,
+            pos2(tape.min.x + 4.0, rect.min.y + 11.0),
+            Align2::LEFT_CENTER,
             format!("DEPTH {unit}"),
             theme::small(),
             theme::SCALE,
         );
         painter.text(
-            pos2(bar.center().x, rect.min.y + 11.0),
-            Align2::CENTER_CENTER,
+            pos2(rect.max.x - 3.0, rect.min.y + 11.0),
+            Align2::RIGHT_CENTER,
             "THR",
             theme::small(),
             theme::THRUST,
@@ -325,6 +327,54 @@ pub fn vertical_speed_text(heave_mps: Option<f64>) -> String {
     }
 }
 
+/// Half the width of the heading tape's value box, points.
+const HEADING_BOX_HALF_W: f32 = 31.0;
+
+/// The heading value box at the top centre of the heading tape's scale `tape`.
+#[must_use]
+pub fn heading_box(tape: Rect) -> Rect {
+    Rect::from_center_size(
+        pos2(tape.center().x, tape.min.y + 10.0),
+        vec2(2.0 * HEADING_BOX_HALF_W, 22.0),
+    )
+}
+
+/// The band of the heading tape's numerals (their text, bottom at 16 px above the
+/// scale's bottom edge, `theme::mid` high).
+#[must_use]
+pub fn heading_numeral_band(tape: Rect) -> Rect {
+    Rect::from_min_max(
+        pos2(tape.min.x, tape.max.y - 16.0 - 16.0),
+        pos2(tape.max.x, tape.max.y - 16.0),
+    )
+}
+
+/// The heading setpoint's number plate for a setpoint bug at `x` on the scale `tape`:
+/// in the top row beside the value box, never over the numerals or the box.
+#[must_use]
+pub fn setpoint_plate(tape: Rect, x: f32) -> Rect {
+    let size = vec2(30.0, 15.0);
+    let b = heading_box(tape);
+    let mut cx = x.clamp(tape.min.x + size.x / 2.0, tape.max.x - size.x / 2.0);
+    if (cx - b.center().x).abs() < HEADING_BOX_HALF_W + size.x / 2.0 + 2.0 {
+        let side = if cx >= b.center().x { 1.0 } else { -1.0 };
+        cx = b.center().x + side * (HEADING_BOX_HALF_W + size.x / 2.0 + 2.0);
+    }
+    Rect::from_center_size(pos2(cx, tape.min.y + 9.0), size)
+}
+
+/// The scale of a heading tape drawn in `rect` (the turns counter takes the right end).
+#[must_use]
+pub fn heading_scale(rect: Rect) -> Rect {
+    Rect::from_min_max(
+        rect.min + vec2(4.0, 4.0),
+        pos2(rect.max.x - HEADING_TURNS_W, rect.max.y - 4.0),
+    )
+}
+
+/// Width of the heading tape's turns counter, points.
+const HEADING_TURNS_W: f32 = 110.0;
+
 /// Heading tape inputs.
 #[derive(Debug, Clone, Copy)]
 pub struct HeadingTape {
@@ -354,11 +404,8 @@ impl HeadingTape {
         resp.widget_info(|| egui::WidgetInfo::labeled(egui::Role::Slider, true, &label));
         let rect = resp.rect;
         frame(ui, rect);
-        let turns_w = 110.0;
-        let tape = Rect::from_min_max(
-            rect.min + vec2(4.0, 4.0),
-            pos2(rect.max.x - turns_w, rect.max.y - 4.0),
-        );
+        let turns_w = HEADING_TURNS_W;
+        let tape = heading_scale(rect);
         let h = self.heading_deg.unwrap_or(0.0);
         let half = 60.0;
         let px_per_deg = tape.width() / (2.0 * half as f32);
@@ -413,9 +460,10 @@ impl HeadingTape {
                 color,
                 Stroke::NONE,
             ));
-            // The setpoint's number sits just above its bug, on a dark plate over the scale.
+            // The setpoint's number sits in the top row, above the numerals (it covered
+            // them, issue 25 item 4), moved beside the heading box when it would hide it.
             let spi = (sp.round() as i64).rem_euclid(360);
-            let plate = Rect::from_center_size(pos2(x, tape.max.y - 23.0), vec2(30.0, 15.0));
+            let plate = setpoint_plate(tape, x);
             painter.rect_filled(plate, 2.0, Color32::from_black_alpha(220));
             painter.text(
                 plate.center(),
@@ -431,7 +479,7 @@ impl HeadingTape {
             [pos2(c.x, tape.min.y + 16.0), pos2(c.x, tape.max.y)],
             Stroke::new(2.0, theme::VALUE),
         );
-        let boxr = Rect::from_center_size(pos2(c.x, tape.min.y + 10.0), vec2(62.0, 22.0));
+        let boxr = heading_box(tape);
         painter.rect_filled(boxr, 3.0, Color32::BLACK);
         painter.rect_stroke(
             boxr,
