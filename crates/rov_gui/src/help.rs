@@ -44,11 +44,11 @@ pub(crate) fn help_window(app: &mut StationApp, ctx: &egui::Context) {
         .open(&mut open)
         .collapsible(false)
         .anchor(egui::Align2::CENTER_CENTER, vec2(0.0, 0.0))
-        .default_size(vec2(760.0, 460.0))
+        .default_size(vec2(720.0f32.min(screen.width() - 40.0), 460.0))
         .max_width((screen.width() - 40.0).max(200.0))
         .max_height((screen.height() - 80.0).max(200.0))
         .show(ctx, |ui| {
-            egui::ScrollArea::vertical().show(ui, |ui| {
+            egui::ScrollArea::both().show(ui, |ui| {
                 ui.columns(2, |cols| {
                     let [left, right] = cols else { return };
                     left.label(RichText::new("Keyboard").strong().color(theme::SCALE));

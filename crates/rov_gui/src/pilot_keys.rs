@@ -34,13 +34,10 @@ pub const TOAST_S: f64 = 3.0;
 /// The keys of this module, for the F1 window (keys, what).
 pub const KEYS: [(&str, &str); 5] = [
     ("K", "acknowledge the alarms"),
-    ("[ / ]", "lights dimmer / brighter (10 %)"),
-    ("T / G", "camera tilt up / down (10°)"),
-    (
-        "↑ / ↓",
-        "depth setpoint shallower / deeper 0.1 m (Shift 1 m)",
-    ),
-    ("← / →", "heading setpoint left / right 1° (Shift 10°)"),
+    ("[ / ]", "lights -/+ 10 %"),
+    ("T / G", "camera tilt up / down 10°"),
+    ("↑ / ↓", "depth setpoint -/+ 0.1 m (Shift 1 m)"),
+    ("← / →", "heading setpoint -/+ 1° (Shift 10°)"),
 ];
 
 /// Handles the keys (the caller has checked that no text field has the keyboard).
