@@ -178,6 +178,16 @@ pub struct StationApp {
     pub(crate) main_view: Option<Box<dyn crate::fly::MainView>>,
     /// The V key's choice: the instrument-only layout even when a main view exists.
     pub(crate) instruments_only: bool,
+    /// O: the camera picture without the HUD (the status strip stays).
+    pub(crate) hud_hidden: bool,
+    /// The marker/note toast: its text and when it appeared (egui time, s).
+    pub(crate) toast: Option<(String, f64)>,
+    /// The newest marker/note line already seen (None until the first frame).
+    pub(crate) toast_seen: Option<Option<String>>,
+    /// The live vehicle was armed at the last frame (for the record offer).
+    pub(crate) was_armed: bool,
+    /// Armed while not recording: the offer to record is up.
+    pub(crate) record_offer: bool,
     /// The camera picture's texture and latency figures.
     pub(crate) video_pane: crate::video::VideoPane,
     /// The `[video]` settings being edited (Settings tab, Connection tab's devices).
@@ -258,6 +268,11 @@ impl StationApp {
             recordings: Vec::new(),
             main_view: None,
             instruments_only: false,
+            hud_hidden: false,
+            toast: None,
+            toast_seen: None,
+            was_armed: false,
+            record_offer: false,
             video_pane: crate::video::VideoPane::default(),
             video_settings: rov_station::runtime::video::VideoSettings::default(),
             capture_devices: None,
@@ -508,6 +523,7 @@ impl StationApp {
         self.live = live;
         self.live_hist = History::default();
         self.live_view = StationView::default();
+        self.toast_seen = None;
         if let Some(h) = &self.live
             && self.foxglove.server.is_some()
         {
@@ -665,6 +681,8 @@ impl StationApp {
             Tab::Gamepad => crate::pad_page::gamepad_tab(self, ui),
         });
         crate::help::help_window(self, ui.ctx());
+        crate::pilot_keys::toast(self, ui.ctx());
+        crate::pilot_keys::record_offer(self, ui.ctx());
         self.screenshot_step(ui.ctx());
         ui.ctx()
             .request_repaint_after(Duration::from_millis(self.repaint_ms));
@@ -710,12 +728,16 @@ impl StationApp {
             };
             (step, i.key_pressed(Key::V))
         });
+        if ui.input(|i| i.key_pressed(Key::O)) {
+            self.hud_hidden = !self.hud_hidden;
+        }
         if let Some(c) = step {
             self.replay_cmd(c);
         }
         if toggle_view && (self.main_view.is_some() || crate::video::shown_video(self).is_some()) {
             self.instruments_only = !self.instruments_only;
         }
+        crate::pilot_keys::keys(self, ui);
         let (sticks, space, esc, gain, hold_d, hold_h) = ui.input(|i| {
             let axis = |pos: Key, neg: Key| {
                 f64::from(u8::from(i.key_down(pos))) - f64::from(u8::from(i.key_down(neg)))
@@ -785,9 +807,10 @@ impl StationApp {
                     };
                     ui.vertical(|ui| {
                         ui.label(RichText::new(state).size(22.0).strong().color(color));
-                        if let Some(h) = &v.hint {
-                            ui.label(RichText::new(h).small().strong().color(theme::AMBER));
-                        }
+                        // Always a line (blank without a hint), so the bar's height and
+                        // everything under it stay put when a hint comes and goes.
+                        let hint = v.hint.as_deref().unwrap_or(" ");
+                        ui.label(RichText::new(hint).small().strong().color(theme::AMBER));
                     });
                     ui.separator();
                     // Gain steps, always visible.
@@ -837,6 +860,13 @@ impl StationApp {
                         };
                         ui.label(RichText::new(src).strong().color(theme::SCALE));
                     }
+                });
+                ui.horizontal(|ui| {
+                    for (tab, name) in Tab::ALL {
+                        ui.selectable_value(&mut self.tab, tab, RichText::new(name).size(15.0));
+                    }
+                    // The clock at the right of the tab row, which has room at every
+                    // width (in the first row it slid under the source, item 4).
                     ui.with_layout(egui::Layout::right_to_left(egui::Align::Center), |ui| {
                         ui.label(
                             RichText::new(format!("t {:.1} s", self.shown().0.snapshot.time_s))
@@ -844,11 +874,6 @@ impl StationApp {
                                 .color(theme::DIM),
                         );
                     });
-                });
-                ui.horizontal(|ui| {
-                    for (tab, name) in Tab::ALL {
-                        ui.selectable_value(&mut self.tab, tab, RichText::new(name).size(15.0));
-                    }
                 });
             });
     }
@@ -858,29 +883,58 @@ impl StationApp {
     /// what, how serious, the value and the limit crossed, with its ACK button.
     fn alarm_bar(&mut self, ui: &mut Ui) {
         use rov_station::runtime::AlarmLevel;
-        let alarms = self.live_view.alarms.clone();
+        let mut alarms = self.live_view.alarms.clone();
+        // Unacknowledged first, alarms before warnings: what the strip cannot fit is the
+        // least urgent.
+        alarms.sort_by_key(|a| (a.acknowledged, a.level != AlarmLevel::Alarm));
         let failsafe = self.live_view.snapshot.alarm.clone();
-        if alarms.is_empty() && failsafe.is_none() {
-            return;
-        }
         let unacked = |lvl: AlarmLevel| alarms.iter().any(|a| !a.acknowledged && a.level == lvl);
-        let (fill, title) = if unacked(AlarmLevel::Alarm) || failsafe.is_some() {
+        let (fill, title) = if alarms.is_empty() && failsafe.is_none() {
+            (Color32::from_rgb(30, 34, 40), "NO ALARMS")
+        } else if unacked(AlarmLevel::Alarm) || failsafe.is_some() {
             (theme::RED, "ALARM")
         } else if unacked(AlarmLevel::Warning) {
             (Color32::from_rgb(200, 120, 0), "WARNING")
         } else {
             (Color32::from_rgb(90, 60, 15), "ACKNOWLEDGED")
         };
+        let n_unacked = alarms.iter().filter(|a| !a.acknowledged).count();
+        // A strip of fixed height, always there: an alarm appearing or clearing never
+        // moves a control under the pointer (issue 25 item 2). What does not fit the
+        // width is clipped at the right (unacknowledged alarms come first).
         egui::Panel::top("alarm_bar")
-            .frame(egui::Frame::new().fill(fill).inner_margin(6.0))
+            .exact_size(ALARM_STRIP_H)
+            .resizable(false)
+            .frame(
+                egui::Frame::new()
+                    .fill(fill)
+                    .inner_margin(egui::Margin::symmetric(6, 2)),
+            )
             .show(ui, |ui| {
-                ui.horizontal_wrapped(|ui| {
-                    ui.label(
-                        RichText::new(title)
-                            .size(20.0)
-                            .strong()
-                            .color(Color32::WHITE),
-                    );
+                ui.horizontal_centered(|ui| {
+                    let title_color = if alarms.is_empty() && failsafe.is_none() {
+                        theme::DIM
+                    } else {
+                        Color32::WHITE
+                    };
+                    ui.label(RichText::new(title).size(18.0).strong().color(title_color));
+                    if n_unacked > 0 {
+                        let text = if n_unacked > 1 {
+                            "ACK ALL (K)"
+                        } else {
+                            "ACK (K)"
+                        };
+                        if ui.button(text).clicked() {
+                            self.live_cmd(RuntimeCommand::AckAlarm(None::<AlarmKind>));
+                        }
+                    }
+                    if let Some(f) = &failsafe {
+                        ui.label(
+                            RichText::new(format!("FAILSAFE {f}: thrust neutral until re-armed"))
+                                .size(16.0)
+                                .color(Color32::WHITE),
+                        );
+                    }
                     for a in &alarms {
                         let state = if a.active { "" } else { " (cleared)" };
                         let level = match a.level {
@@ -889,7 +943,9 @@ impl StationApp {
                         };
                         let unit = a.kind.unit();
                         let value = match (a.value, a.limit) {
-                            (Some(v), Some(l)) => format!(" {v:.1} {unit} (limit {l:.1})"),
+                            (Some(v), Some(l)) => {
+                                format!(" {v:.1} {unit} (limit {l:.1} {unit})")
+                            }
                             (Some(v), None) => format!(" {v:.1} {unit}"),
                             _ => String::new(),
                         };
@@ -899,23 +955,11 @@ impl StationApp {
                         } else {
                             Color32::WHITE
                         };
-                        ui.label(RichText::new(text).size(17.0).strong().color(color));
-                        if !a.acknowledged && ui.button("ACK").clicked() {
+                        ui.label(RichText::new(text).size(16.0).strong().color(color));
+                        if !a.acknowledged && n_unacked > 1 && ui.button("ACK").clicked() {
                             self.live_cmd(RuntimeCommand::AckAlarm(Some(a.kind)));
                         }
                         ui.separator();
-                    }
-                    if let Some(f) = &failsafe {
-                        ui.label(
-                            RichText::new(format!("FAILSAFE {f}: thrust neutral until re-armed"))
-                                .size(16.0)
-                                .color(Color32::WHITE),
-                        );
-                    }
-                    if alarms.iter().filter(|a| !a.acknowledged).count() > 1
-                        && ui.button("ACK ALL").clicked()
-                    {
-                        self.live_cmd(RuntimeCommand::AckAlarm(None::<AlarmKind>));
                     }
                 });
             });
@@ -1002,6 +1046,9 @@ impl StationApp {
         ctx.request_repaint_after(Duration::from_millis(50));
     }
 }
+
+/// Height of the alarm strip under the top bar, points (always shown, see `alarm_bar`).
+pub const ALARM_STRIP_H: f32 = 32.0;
 
 impl eframe::App for StationApp {
     fn ui(&mut self, ui: &mut Ui, _frame: &mut eframe::Frame) {

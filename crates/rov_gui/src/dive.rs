@@ -11,6 +11,9 @@ use crate::app::StationApp;
 use crate::instruments::{dot_label, group_title};
 use crate::theme;
 
+/// Markers and notes listed in the dive panel (the newest).
+const LOG_ROWS: usize = 3;
+
 fn mmss(s: f64) -> String {
     let t = s.max(0.0) as u64;
     format!("{:02}:{:02}", t / 60, t % 60)
@@ -67,6 +70,36 @@ pub(crate) fn dive_panel(app: &mut StationApp, ui: &mut Ui) {
             }
         });
     });
+    // The last markers and notes, in a block of fixed height (the panels under it do
+    // not move when one is added).
+    let lines = crate::pilot_keys::log_lines(app);
+    let row_h = ui.text_style_height(&egui::TextStyle::Monospace) + ui.spacing().item_spacing.y;
+    let block_h = LOG_ROWS as f32 * row_h;
+    let w = ui.available_width();
+    ui.allocate_ui(vec2(w, block_h), |ui| {
+        ui.set_min_height(block_h);
+        ui.set_max_height(block_h);
+        if lines.is_empty() {
+            ui.label(
+                RichText::new("no markers or notes yet (M, N)")
+                    .small()
+                    .color(theme::DIM),
+            );
+        }
+        let skip = lines.len().saturating_sub(LOG_ROWS);
+        for l in lines.iter().skip(skip) {
+            ui.add(egui::Label::new(RichText::new(l).small().monospace()).truncate())
+                .on_hover_text(l);
+        }
+    });
+}
+
+/// A compass reading in whole degrees, 000–359: rounded first, then wrapped, so 359.6°
+/// reads 000, never 360 (issue 25 item 11).
+pub(crate) fn compass_deg(heading_deg: f64) -> u16 {
+    let whole = rov_types::angle::wrap_deg_360(heading_deg.round());
+    // wrap_deg_360 gives [0, 360); a whole number in it fits u16.
+    (whole as u16) % 360
 }
 
 fn status(s: ItemStatus) -> (egui::Color32, &'static str) {
@@ -101,14 +134,21 @@ pub(crate) fn predive_tab(app: &mut StationApp, ui: &mut Ui) {
                 dot_label(ui, color, RichText::new(item.name()).strong());
                 ui.label(RichText::new(text).strong().color(color));
                 ui.vertical(|ui| {
-                    if !iv.detail.is_empty() {
-                        ui.label(RichText::new(&iv.detail).small());
-                    }
+                    // One line always (blank until there is a result, truncated with
+                    // the whole text on hover), so a result never moves the buttons
+                    // under it (issue 25 item 2).
+                    let detail = if iv.detail.is_empty() {
+                        " "
+                    } else {
+                        &iv.detail
+                    };
+                    ui.add(egui::Label::new(RichText::new(detail).small()).truncate())
+                        .on_hover_text(detail);
                     match item {
                         rov_station::runtime::dive::Item::Compass => {
                             let h = v.snapshot.heading_deg.map_or_else(
                                 || "---".into(),
-                                |h| format!("{:03.0}°", h.rem_euclid(360.0)),
+                                |h| format!("{:03}°", compass_deg(h)),
                             );
                             ui.horizontal(|ui| {
                                 ui.label(format!(
@@ -217,10 +257,18 @@ fn thruster_controls(
             }
         });
     }
+    // The columns are 12 V rail currents (amps), before and while each thruster runs;
+    // the pass rule is the station's (`ThrusterResult::drew_current`).
     egui::Grid::new("thruster_results")
-        .num_columns(4)
+        .num_columns(5)
         .show(ui, |ui| {
-            for h in ["thruster", "thrust", "12 V before", "12 V during"] {
+            for h in [
+                "thruster",
+                "thrust",
+                "12 V current before",
+                "12 V current running",
+                "result",
+            ] {
                 ui.label(RichText::new(h).small().color(theme::DIM));
             }
             ui.end_row();
@@ -230,7 +278,37 @@ fn thruster_controls(
                 ui.label(format!("{:+.0} %", r.commanded_pct));
                 ui.label(a(r.idle_a));
                 ui.label(a(r.peak_a));
+                let (text, color) = match (r.idle_a, r.peak_a) {
+                    (Some(_), Some(_)) if r.drew_current() => ("pass", theme::GREEN),
+                    (Some(_), Some(_)) => ("FAIL", theme::RED),
+                    _ => ("---", theme::DIM),
+                };
+                ui.label(RichText::new(text).strong().color(color));
                 ui.end_row();
             }
         });
+    ui.label(
+        RichText::new("pass: the 12 V current rises by at least 0.1 A while the thruster runs")
+            .small()
+            .color(theme::DIM),
+    );
+}
+
+#[cfg(test)]
+mod tests {
+    use super::compass_deg;
+
+    /// Issue 25 item 11: the compass reads 000–359, never 360.
+    #[test]
+    fn the_compass_reads_000_to_359() {
+        assert_eq!(compass_deg(359.6), 0);
+        assert_eq!(compass_deg(359.4), 359);
+        assert_eq!(compass_deg(-0.4), 0);
+        assert_eq!(compass_deg(-0.6), 359);
+        assert_eq!(compass_deg(720.2), 0);
+        assert_eq!(compass_deg(90.5), 91);
+        for k in -7200..7200 {
+            assert!(compass_deg(f64::from(k) * 0.1) < 360);
+        }
+    }
 }

@@ -36,15 +36,17 @@ pub(crate) fn fly(app: &mut StationApp, ui: &mut Ui) {
         .resizable(false)
         .show(ui, |ui| {
             crate::layout::scroll(app, ui, "fly_side_scroll", |app, ui| {
+                // Lights and tilt right under the autopilot: both in view at 1280×800
+                // without scrolling (issue 25 item 15).
                 crate::panels::autopilot_panel(app, ui);
+                ui.separator();
+                crate::panels::camera_panel(app, ui);
                 ui.separator();
                 crate::dive::dive_panel(app, ui);
                 ui.separator();
                 crate::panels::health_panel(app, ui);
                 ui.separator();
                 crate::panels::link_panel(app, ui);
-                ui.separator();
-                crate::panels::camera_panel(app, ui);
                 ui.separator();
                 crate::panels::sticks_panel(app, ui);
             });
@@ -171,11 +173,34 @@ fn instrument_layout(app: &mut StationApp, ui: &mut Ui, v: &StationView) {
     });
 }
 
-/// The instruments over a picture: heading tape along the top, depth tape on the left,
-/// the horizon line across the middle, thrust bars bottom right.
-fn hud_overlay(app: &mut StationApp, ui: &mut Ui, rect: Rect, v: &StationView) {
+/// Where the HUD's parts go over a picture in `rect` (issue 25 items 1, 4, 15): none of
+/// them overlaps another at the window sizes the station supports.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HudLayout {
+    /// The heading tape, along the top right of the depth tape.
+    pub top: Rect,
+    /// The depth tape, down the left edge.
+    pub left: Rect,
+    /// The horizon and ladder, in the middle.
+    pub mid: Rect,
+    /// The thrust box, bottom right above the status strip.
+    pub bars: Rect,
+    /// The camera-tilt indicator, right edge between the heading tape and thrust box.
+    pub tilt: Rect,
+    /// The status strip's chips (REC, link, video, alarms) along the bottom, right of
+    /// the depth tape.
+    pub status: Rect,
+}
+
+/// Height of the HUD's status strip, points.
+pub const HUD_STATUS_H: f32 = 30.0;
+
+/// The HUD's layout over a picture filling `rect`.
+#[must_use]
+pub fn hud_layout(rect: Rect) -> HudLayout {
     let m = 6.0;
     let tape_w = 130.0;
+    let tilt_w = 56.0;
     let top = Rect::from_min_size(
         rect.min + vec2(tape_w + 2.0 * m, m),
         vec2((rect.width() - tape_w - 3.0 * m).max(100.0), 60.0),
@@ -184,15 +209,51 @@ fn hud_overlay(app: &mut StationApp, ui: &mut Ui, rect: Rect, v: &StationView) {
         rect.min + vec2(m, m),
         vec2(tape_w, (rect.height() - 2.0 * m).max(100.0)),
     );
-    let bars = Rect::from_min_max(
-        pos2(rect.max.x - 150.0 - m, rect.max.y - 170.0 - m),
-        rect.max - vec2(m, m),
+    // The chips start right of the depth tape.
+    let status = Rect::from_min_max(
+        pos2(left.max.x + 2.0 * m, rect.max.y - HUD_STATUS_H),
+        rect.max,
     );
-    // The bottom 30 px stay free for the status strip (REC, link, video, alarms).
+    // The thrust box sits above the status strip so no chip covers the thrust values.
+    let bars = Rect::from_min_max(
+        pos2(
+            rect.max.x - 150.0 - m,
+            (status.min.y - m - 200.0).max(top.max.y + 120.0),
+        ),
+        pos2(rect.max.x - m, status.min.y - m),
+    );
+    let tilt = Rect::from_min_max(
+        pos2(rect.max.x - tilt_w - m, top.max.y + m),
+        pos2(rect.max.x - m, bars.min.y - m),
+    );
     let mid = Rect::from_min_max(
         pos2(left.max.x + m, top.max.y + m),
-        pos2(bars.min.x - m, rect.max.y - m - 30.0),
+        pos2(tilt.min.x.min(bars.min.x) - m, status.min.y - m),
     );
+    HudLayout {
+        top,
+        left,
+        mid,
+        bars,
+        tilt,
+        status,
+    }
+}
+
+/// The instruments over a picture: heading tape along the top, depth tape on the left,
+/// the horizon line across the middle, thrust bars bottom right.
+fn hud_overlay(app: &mut StationApp, ui: &mut Ui, rect: Rect, v: &StationView) {
+    if app.hud_hidden {
+        return;
+    }
+    let HudLayout {
+        top,
+        left,
+        mid,
+        bars,
+        tilt,
+        ..
+    } = hud_layout(rect);
     ui.scope_builder(UiBuilder::new().max_rect(top), |ui| {
         heading_tape(app, ui, v, top.size());
     });
@@ -208,6 +269,7 @@ fn hud_overlay(app: &mut StationApp, ui: &mut Ui, rect: Rect, v: &StationView) {
             v.stale.attitude,
         );
     });
+    tilt_indicator(ui, tilt, v.camera.tilt_deg);
     ui.scope_builder(UiBuilder::new().max_rect(bars), |ui| {
         let th = v.snapshot.thrust;
         instruments::thruster_bars(
@@ -218,4 +280,57 @@ fn hud_overlay(app: &mut StationApp, ui: &mut Ui, rect: Rect, v: &StationView) {
             th.vertical_pct,
         );
     });
+}
+
+/// Camera tilt range drawn by [`tilt_indicator`], degrees either side of level.
+const TILT_RANGE_DEG: f64 = 90.0;
+
+/// The camera tilt over the picture: a thin vertical scale (up is the camera looking
+/// up), a marker at the tilt and its value in degrees; no backplate, a dark outline
+/// keeps it legible over a bright seabed.
+fn tilt_indicator(ui: &Ui, rect: Rect, tilt_deg: f64) {
+    use egui::{Align2, FontId, Stroke};
+    let p = ui.painter_at(rect);
+    let x = rect.max.x - 8.0;
+    let (y0, y1) = (rect.min.y + 22.0, rect.max.y - 4.0);
+    if y1 <= y0 {
+        return;
+    }
+    let y_of = |deg: f64| {
+        let f = ((TILT_RANGE_DEG - deg.clamp(-TILT_RANGE_DEG, TILT_RANGE_DEG))
+            / (2.0 * TILT_RANGE_DEG)) as f32;
+        y0 + f * (y1 - y0)
+    };
+    let shadow = Stroke::new(3.0, egui::Color32::from_black_alpha(140));
+    let line = Stroke::new(1.0, crate::theme::SCALE);
+    for s in [shadow, line] {
+        p.line_segment([pos2(x, y0), pos2(x, y1)], s);
+        for deg in [-90.0, -45.0, 0.0, 45.0, 90.0] {
+            let len = if deg == 0.0 { 10.0 } else { 6.0 };
+            let y = y_of(deg);
+            p.line_segment([pos2(x - len, y), pos2(x, y)], s);
+        }
+    }
+    let y = y_of(tilt_deg);
+    let tri = vec![
+        pos2(x - 2.0, y),
+        pos2(x - 12.0, y - 5.0),
+        pos2(x - 12.0, y + 5.0),
+    ];
+    p.add(egui::Shape::convex_polygon(
+        tri,
+        crate::theme::THRUST,
+        Stroke::new(1.0, egui::Color32::BLACK),
+    ));
+    let text = format!("TILT {tilt_deg:+.0}°");
+    let font = FontId::monospace(12.0);
+    let at = pos2(rect.max.x, rect.min.y + 2.0);
+    p.text(
+        at + vec2(1.0, 1.0),
+        Align2::RIGHT_TOP,
+        &text,
+        font.clone(),
+        egui::Color32::BLACK,
+    );
+    p.text(at, Align2::RIGHT_TOP, text, font, crate::theme::THRUST);
 }

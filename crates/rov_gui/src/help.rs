@@ -8,7 +8,7 @@ use crate::app::StationApp;
 use crate::theme;
 
 /// The keyboard bindings: (keys, what).
-pub const KEYS: [(&str, &str); 16] = [
+pub const KEYS: [(&str, &str); 17] = [
     ("Space (hold 1 s)", "arm"),
     ("Esc", "disarm"),
     ("W / S", "forward / astern"),
@@ -20,6 +20,7 @@ pub const KEYS: [(&str, &str); 16] = [
     ("M", "dive-log marker"),
     ("N", "type a dive-log note (Enter records it)"),
     ("V", "camera view / instruments only"),
+    ("O", "camera: hide / show the HUD"),
     (", / .", "replay: one control tick back / forward"),
     ("drag a tape", "set the depth or heading setpoint"),
     ("F1 or ?", "this window"),
@@ -36,17 +37,23 @@ pub(crate) fn help_window(app: &mut StationApp, ctx: &egui::Context) {
     }
     let map = app.live_view.pilot.pad_map.clone();
     let mut open = true;
+    // Never taller or wider than the window (it was clipped at the bottom at 1024×600,
+    // issue 25 item 4): the contents scroll instead.
+    let screen = ctx.content_rect();
     egui::Window::new("Keys and buttons")
         .open(&mut open)
         .collapsible(false)
-        .default_size(vec2(720.0, 460.0))
+        .anchor(egui::Align2::CENTER_CENTER, vec2(0.0, 0.0))
+        .default_size(vec2(720.0f32.min(screen.width() - 40.0), 460.0))
+        .max_width((screen.width() - 40.0).max(200.0))
+        .max_height((screen.height() - 80.0).max(200.0))
         .show(ctx, |ui| {
-            egui::ScrollArea::vertical().show(ui, |ui| {
+            egui::ScrollArea::both().show(ui, |ui| {
                 ui.columns(2, |cols| {
                     let [left, right] = cols else { return };
                     left.label(RichText::new("Keyboard").strong().color(theme::SCALE));
                     egui::Grid::new("help_keys").striped(true).show(left, |ui| {
-                        for (k, what) in KEYS {
+                        for &(k, what) in KEYS.iter().chain(&crate::pilot_keys::KEYS) {
                             ui.label(RichText::new(k).monospace());
                             ui.label(what);
                             ui.end_row();

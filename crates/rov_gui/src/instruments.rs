@@ -5,7 +5,9 @@
 //! Instruments return what the pilot did with them (a dragged setpoint); they never hold
 //! timers: the arm button only reports "held" each frame and the runtime times the hold.
 
-use egui::{Align2, Color32, FontId, Rect, Sense, Shape, Stroke, StrokeKind, Ui, Vec2, pos2, vec2};
+use egui::{
+    Align2, Color32, FontId, Pos2, Rect, Sense, Shape, Stroke, StrokeKind, Ui, Vec2, pos2, vec2,
+};
 
 use crate::theme;
 
@@ -136,16 +138,18 @@ impl DepthTape {
         } else {
             (1.0, "m")
         };
+        // Headers at the two ends of the row: "THR" right-aligned over its bar, never
+        // reaching into the tape's header (issue 25 item 4).
         painter.text(
-            pos2(tape.center().x, rect.min.y + 11.0),
-            Align2::CENTER_CENTER,
+            pos2(tape.min.x + 4.0, rect.min.y + 11.0),
+            Align2::LEFT_CENTER,
             format!("DEPTH {unit}"),
             theme::small(),
             theme::SCALE,
         );
         painter.text(
-            pos2(bar.center().x, rect.min.y + 11.0),
-            Align2::CENTER_CENTER,
+            pos2(rect.max.x - 3.0, rect.min.y + 11.0),
+            Align2::RIGHT_CENTER,
             "THR",
             theme::small(),
             theme::THRUST,
@@ -323,6 +327,54 @@ pub fn vertical_speed_text(heave_mps: Option<f64>) -> String {
     }
 }
 
+/// Half the width of the heading tape's value box, points.
+const HEADING_BOX_HALF_W: f32 = 31.0;
+
+/// The heading value box at the top centre of the heading tape's scale `tape`.
+#[must_use]
+pub fn heading_box(tape: Rect) -> Rect {
+    Rect::from_center_size(
+        pos2(tape.center().x, tape.min.y + 10.0),
+        vec2(2.0 * HEADING_BOX_HALF_W, 22.0),
+    )
+}
+
+/// The band of the heading tape's numerals (their text, bottom at 16 px above the
+/// scale's bottom edge, `theme::mid` high).
+#[must_use]
+pub fn heading_numeral_band(tape: Rect) -> Rect {
+    Rect::from_min_max(
+        pos2(tape.min.x, tape.max.y - 16.0 - 16.0),
+        pos2(tape.max.x, tape.max.y - 16.0),
+    )
+}
+
+/// The heading setpoint's number plate for a setpoint bug at `x` on the scale `tape`:
+/// in the top row beside the value box, never over the numerals or the box.
+#[must_use]
+pub fn setpoint_plate(tape: Rect, x: f32) -> Rect {
+    let size = vec2(30.0, 15.0);
+    let b = heading_box(tape);
+    let mut cx = x.clamp(tape.min.x + size.x / 2.0, tape.max.x - size.x / 2.0);
+    if (cx - b.center().x).abs() < HEADING_BOX_HALF_W + size.x / 2.0 + 2.0 {
+        let side = if cx >= b.center().x { 1.0 } else { -1.0 };
+        cx = b.center().x + side * (HEADING_BOX_HALF_W + size.x / 2.0 + 2.0);
+    }
+    Rect::from_center_size(pos2(cx, tape.min.y + 9.0), size)
+}
+
+/// The scale of a heading tape drawn in `rect` (the turns counter takes the right end).
+#[must_use]
+pub fn heading_scale(rect: Rect) -> Rect {
+    Rect::from_min_max(
+        rect.min + vec2(4.0, 4.0),
+        pos2(rect.max.x - HEADING_TURNS_W, rect.max.y - 4.0),
+    )
+}
+
+/// Width of the heading tape's turns counter, points.
+const HEADING_TURNS_W: f32 = 110.0;
+
 /// Heading tape inputs.
 #[derive(Debug, Clone, Copy)]
 pub struct HeadingTape {
@@ -352,11 +404,8 @@ impl HeadingTape {
         resp.widget_info(|| egui::WidgetInfo::labeled(egui::Role::Slider, true, &label));
         let rect = resp.rect;
         frame(ui, rect);
-        let turns_w = 110.0;
-        let tape = Rect::from_min_max(
-            rect.min + vec2(4.0, 4.0),
-            pos2(rect.max.x - turns_w, rect.max.y - 4.0),
-        );
+        let turns_w = HEADING_TURNS_W;
+        let tape = heading_scale(rect);
         let h = self.heading_deg.unwrap_or(0.0);
         let half = 60.0;
         let px_per_deg = tape.width() / (2.0 * half as f32);
@@ -411,9 +460,10 @@ impl HeadingTape {
                 color,
                 Stroke::NONE,
             ));
-            // The setpoint's number sits just above its bug, on a dark plate over the scale.
+            // The setpoint's number sits in the top row, above the numerals (it covered
+            // them, issue 25 item 4), moved beside the heading box when it would hide it.
             let spi = (sp.round() as i64).rem_euclid(360);
-            let plate = Rect::from_center_size(pos2(x, tape.max.y - 23.0), vec2(30.0, 15.0));
+            let plate = setpoint_plate(tape, x);
             painter.rect_filled(plate, 2.0, Color32::from_black_alpha(220));
             painter.text(
                 plate.center(),
@@ -429,7 +479,7 @@ impl HeadingTape {
             [pos2(c.x, tape.min.y + 16.0), pos2(c.x, tape.max.y)],
             Stroke::new(2.0, theme::VALUE),
         );
-        let boxr = Rect::from_center_size(pos2(c.x, tape.min.y + 10.0), vec2(62.0, 22.0));
+        let boxr = heading_box(tape);
         painter.rect_filled(boxr, 3.0, Color32::BLACK);
         painter.rect_stroke(
             boxr,
@@ -515,6 +565,10 @@ pub fn horizon(
         )
     });
     resp.widget_info(|| egui::WidgetInfo::labeled(egui::Role::Image, true, &label));
+    if overlay(ui) {
+        horizon_hud(ui, rect, pitch_deg, roll_deg, stale);
+        return;
+    }
     frame(ui, rect);
     let inner = rect.shrink(6.0);
     let painter = ui.painter().with_clip_rect(inner);
@@ -617,6 +671,124 @@ pub fn horizon(
     );
     if stale {
         stale_overlay(&painter, inner);
+    }
+}
+
+/// Half-width of the clear centre of the HUD horizon, points: no line, ladder or plate
+/// crosses the middle of the picture, where the pilot looks for the target.
+pub const HUD_CLEAR_HALF_W: f32 = 90.0;
+
+/// The horizon over a picture (as QGroundControl's and Cockpit's HUDs do): no
+/// backplate and no tint, a thin horizon line and pitch ladder broken across the clear
+/// centre, the vehicle symbol as two short wings beside it, the roll pointer on a short
+/// arc at the top edge, and the pitch/roll readout as small text at the bottom edge.
+fn horizon_hud(ui: &Ui, rect: Rect, pitch_deg: Option<f64>, roll_deg: Option<f64>, stale: bool) {
+    let inner = rect.shrink(6.0);
+    let painter = ui.painter().with_clip_rect(inner);
+    let c = inner.center();
+    let ink = Color32::from_white_alpha(200);
+    let shadow = Color32::from_black_alpha(120);
+    let pitch = pitch_deg.unwrap_or(0.0) as f32;
+    let roll = roll_deg.unwrap_or(0.0).to_radians() as f32;
+    let px_per_deg = inner.height() / 60.0;
+    let (s, co) = (-roll).sin_cos();
+    let p = |x: f32, y: f32| {
+        c + vec2(
+            x * co - (y + pitch * px_per_deg) * s,
+            x * s + (y + pitch * px_per_deg) * co,
+        )
+    };
+    let gap = HUD_CLEAR_HALF_W.min(inner.width() * 0.25);
+    let reach = (inner.width() * 0.45).max(gap + 40.0);
+    // A one-pixel dark edge keeps the thin lines readable over a bright seabed.
+    let line = |a: Pos2, b: Pos2, w: f32| {
+        painter.line_segment(
+            [a + vec2(1.0, 1.0), b + vec2(1.0, 1.0)],
+            Stroke::new(w, shadow),
+        );
+        painter.line_segment([a, b], Stroke::new(w, ink));
+    };
+    if pitch_deg.is_some() && !stale {
+        line(p(-reach, 0.0), p(-gap, 0.0), 1.5);
+        line(p(gap, 0.0), p(reach, 0.0), 1.5);
+        for k in [-20i32, -10, 10, 20] {
+            let y = -(k as f32) * px_per_deg;
+            let w = if k % 20 == 0 { 34.0 } else { 22.0 };
+            line(p(-gap - w, y), p(-gap, y), 1.0);
+            line(p(gap, y), p(gap + w, y), 1.0);
+            painter.text(
+                p(gap + w + 12.0, y),
+                Align2::CENTER_CENTER,
+                format!("{}", k.abs()),
+                theme::small(),
+                ink,
+            );
+        }
+    }
+    // Fixed vehicle symbol: two short wings outside the clear centre and a small dot.
+    let sym = Stroke::new(2.0, Color32::YELLOW);
+    painter.line_segment([c - vec2(gap + 30.0, 0.0), c - vec2(gap - 6.0, 0.0)], sym);
+    painter.line_segment([c + vec2(gap - 6.0, 0.0), c + vec2(gap + 30.0, 0.0)], sym);
+    painter.circle_filled(c, 2.0, Color32::YELLOW);
+    // Roll: a short arc of ticks along the top edge and a pointer.
+    let r = inner.height() * 0.5 - 4.0;
+    let top = pos2(c.x, inner.min.y + 4.0 + r);
+    for a in [-30.0f32, -20.0, -10.0, 0.0, 10.0, 20.0, 30.0] {
+        let t = (a - 90.0).to_radians();
+        let dir = vec2(t.cos(), t.sin());
+        let len = if a == 0.0 || a.abs() == 30.0 {
+            9.0
+        } else {
+            5.0
+        };
+        painter.line_segment(
+            [top + dir * r, top + dir * (r - len)],
+            Stroke::new(1.0, ink),
+        );
+    }
+    if roll_deg.is_some() && !stale {
+        let t = -roll - std::f32::consts::FRAC_PI_2;
+        let dir = vec2(t.cos(), t.sin());
+        let tip = top + dir * (r - 10.0);
+        let n = vec2(-dir.y, dir.x);
+        painter.add(Shape::convex_polygon(
+            vec![tip, tip - dir * 9.0 + n * 5.0, tip - dir * 9.0 - n * 5.0],
+            Color32::YELLOW,
+            Stroke::NONE,
+        ));
+    }
+    let text = format!(
+        "P {}  R {}",
+        fmt_opt(pitch_deg, 1, "°"),
+        fmt_opt(roll_deg, 1, "°")
+    );
+    let at = pos2(c.x, inner.max.y - 4.0);
+    painter.text(
+        at + vec2(1.0, 1.0),
+        Align2::CENTER_BOTTOM,
+        &text,
+        theme::small(),
+        Color32::BLACK,
+    );
+    painter.text(
+        at,
+        Align2::CENTER_BOTTOM,
+        text,
+        theme::small(),
+        Color32::WHITE,
+    );
+    if stale {
+        // Over a picture, NO DATA without darkening the whole picture.
+        let plate = Rect::from_center_size(c - vec2(0.0, 40.0), vec2(96.0, 24.0));
+        painter.rect_filled(plate, 3.0, Color32::BLACK);
+        painter.rect_stroke(plate, 3.0, Stroke::new(1.5, theme::RED), StrokeKind::Inside);
+        painter.text(
+            plate.center(),
+            Align2::CENTER_CENTER,
+            "NO DATA",
+            FontId::monospace(15.0),
+            theme::RED,
+        );
     }
 }
 

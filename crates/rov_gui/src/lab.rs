@@ -11,7 +11,7 @@ use std::sync::Arc;
 use std::sync::mpsc::{Receiver, channel};
 
 use egui::{Color32, RichText, Ui};
-use egui_plot::{Corner, Legend, Line, Plot, PlotPoints, Points};
+use egui_plot::{Line, Plot, PlotPoints, Points};
 use rov_lab::diagnose::{DiagnoseOptions, Diagnosis, Status, diagnose};
 use rov_lab::evaluate::evaluate;
 use rov_lab::lab::fit_with_effects;
@@ -188,7 +188,7 @@ pub fn load(path: &Path) -> Result<LabData, String> {
 /// # Errors
 /// The lab's error text.
 pub fn compare(model: &LabModel, run: &Run) -> Result<Comparison, String> {
-    compare_on(model, run, "whole run")
+    compare_on(model, run, WHOLE_RUN)
 }
 
 /// [`compare`] with a label for the data compared.
@@ -234,6 +234,9 @@ impl Comparison {
 
 /// The held-out part's label.
 pub const HELD_OUT: &str = "held-out third";
+
+/// The label of a comparison on all the data.
+pub const WHOLE_RUN: &str = "whole run";
 
 fn model_label(m: &LabModel) -> String {
     let mut s = m.kind().name().to_string();
@@ -325,12 +328,19 @@ impl LabState {
         let run = Arc::clone(&d.full);
         let kind = self.kind;
         let current = self.model.clone().filter(|m| m.kind() == kind);
+        // Say which numbers these are: Diagnose scores a calibrated model on the held-out
+        // third, Compare the model as it is on the whole run (issue 25 item 14).
+        let scope = if current.is_some() {
+            format!("{WHOLE_RUN}, the lab's current model")
+        } else {
+            format!("{WHOLE_RUN}, shipped parameters (not calibrated)")
+        };
         self.spawn("comparing", move || {
             let m = match current.map_or_else(|| LabModel::default_base(kind), Ok) {
                 Ok(m) => m,
                 Err(e) => return LabResult::Failed(e.to_string()),
             };
-            match compare(&m, &run) {
+            match compare_on(&m, &run, &scope) {
                 Ok(c) => LabResult::Compared(c),
                 Err(e) => LabResult::Failed(e),
             }
@@ -533,8 +543,6 @@ pub(crate) fn lab_tab(app: &mut StationApp, ui: &mut Ui) {
     if let Some(e) = &lab.error {
         ui.label(RichText::new(e).color(theme::RED));
     }
-    use_for_autopilot(app, ui);
-    crate::lab_video::panel(app, ui);
     let lab = &mut app.lab;
     ui.separator();
     let mut add: Option<EffectId> = None;
@@ -594,7 +602,7 @@ pub(crate) fn lab_tab(app: &mut StationApp, ui: &mut Ui) {
                                 .filter_map(|k| {
                                     f.validation_rmse_reduction_pct
                                         .get(*k)
-                                        .map(|v| format!("{k} {:+.0} %", -v))
+                                        .map(|v| format!("{k} {} %", signed_pct(-v)))
                                 })
                                 .collect();
                             if !red.is_empty() {
@@ -630,8 +638,19 @@ pub(crate) fn lab_tab(app: &mut StationApp, ui: &mut Ui) {
     if let Some(e) = remove {
         lab.start_remove_effect(e);
     }
-    comparison_plots(ui, lab.comparison.as_ref());
+    // The rest scrolls (issue 25 item 7): the autopilot row, the camera frame and the
+    // plots, each plot at least MIN_PLOT_H tall, so a camera frame or a short window
+    // never squeezes them to slivers.
+    let view_h = ui.available_height();
+    crate::layout::scroll(app, ui, "lab_scroll", |app, ui| {
+        use_for_autopilot(app, ui);
+        crate::lab_video::panel(app, ui);
+        comparison_plots(ui, app.lab.comparison.as_ref(), view_h);
+    });
 }
+
+/// The least height of a lab plot, points (with its title and legend).
+pub const MIN_PLOT_H: f32 = 150.0;
 
 /// The lab's model as the autopilot's feedforward and observer model: a click while
 /// disarmed; while armed the station refuses a plain click and the pilot holds the
@@ -669,6 +688,13 @@ fn use_for_autopilot(app: &mut StationApp, ui: &mut Ui) {
                 send = Some(true);
             }
         }
+        if ui
+            .button("Save model…")
+            .on_hover_text("the lab's model as a model file (TOML) the autopilot and sim can load")
+            .clicked()
+        {
+            save_model(app);
+        }
         ui.label(
             RichText::new(format!("autopilot uses: {}", app.live_view.model_label))
                 .small()
@@ -676,6 +702,29 @@ fn use_for_autopilot(app: &mut StationApp, ui: &mut Ui) {
         );
         app.model_switch.show(ui);
     });
+    let unconfirmed = unconfirmed_effects(&app.lab);
+    if !unconfirmed.is_empty() {
+        let list: Vec<String> = unconfirmed
+            .iter()
+            .map(|(e, why)| format!("{e} ({why})"))
+            .collect();
+        ui.label(
+            RichText::new(format!(
+                "Note: this model carries effects the lab did not rate significant: {}. \
+                 Use for autopilot takes them as they are.",
+                list.join(", ")
+            ))
+            .small()
+            .color(theme::AMBER),
+        );
+    }
+    if send.is_some() && !unconfirmed.is_empty() {
+        let keys: Vec<&str> = unconfirmed.iter().map(|(e, _)| e.as_str()).collect();
+        app.message = Some(format!(
+            "autopilot model includes effects not rated significant: {}",
+            keys.join(", ")
+        ));
+    }
     if let Some(confirmed) = send
         && let Some(m) = app.lab.model.as_ref()
     {
@@ -683,6 +732,54 @@ fn use_for_autopilot(app: &mut StationApp, ui: &mut Ui) {
             rov_station::AutopilotModel::from_vehicle_model(&label, m).map_err(|e| e.to_string());
         app.send_autopilot_model(plant, confirmed);
     }
+}
+
+/// A percentage change, whole, signed: "-12", "+3", and "0" for anything that rounds to
+/// zero (no "-0" for a change of -0.3 %).
+#[must_use]
+pub fn signed_pct(x: f64) -> String {
+    let r = x.round();
+    if r == 0.0 || !r.is_finite() {
+        if r.is_nan() { "---".into() } else { "0".into() }
+    } else {
+        format!("{r:+.0}")
+    }
+}
+
+/// The effects of the lab's model the diagnosis did not rate significant, with the
+/// rating ("not significant", "AMBIGUOUS"...).
+fn unconfirmed_effects(lab: &LabState) -> Vec<(String, &'static str)> {
+    let (Some(m), Some(d)) = (&lab.model, &lab.diagnosis) else {
+        return Vec::new();
+    };
+    m.active_effects()
+        .iter()
+        .filter_map(|e| {
+            let f = d
+                .findings
+                .iter()
+                .find(|f| EffectId::parse(&f.effect) == Some(*e))?;
+            (f.status != Status::Significant && !f.contained)
+                .then(|| (e.key().to_string(), status_badge(f.status).0))
+        })
+        .collect()
+}
+
+/// Save model…: the lab's model as a saved-model TOML where the pilot chooses.
+fn save_model(app: &mut StationApp) {
+    let Some(m) = app.lab.model.as_ref() else {
+        return;
+    };
+    let name = format!("lab-{}.toml", model_label(m).replace(['+', ' '], "_"));
+    let Some(path) = app.backend.save_file("Save the lab's model", &name) else {
+        return;
+    };
+    let note = format!("saved from the station's model lab: {}", model_label(m));
+    let text = rov_lab::persist::save_extended_model(m, &note);
+    app.message = Some(match std::fs::write(&path, text) {
+        Ok(()) => format!("model saved: {}", path.display()),
+        Err(e) => format!("model not saved: {}: {e}", path.display()),
+    });
 }
 
 /// The channels the lab's summaries show (when the data has them).
@@ -717,7 +814,7 @@ fn error_fall(ui: &mut Ui, fall: &[(String, BTreeMap<String, f64>)]) {
             crate::instruments::dot_label(ui, colors[k % colors.len()], RichText::new(*ch).small());
         }
     });
-    Plot::new("error_fall")
+    crate::plots::with_y_ticks(Plot::new("error_fall"))
         .height(140.0)
         .allow_drag(false)
         .allow_zoom(false)
@@ -780,8 +877,11 @@ pub fn channel_unit(name: &str) -> &'static str {
 pub type Segments = Vec<Vec<[f64; 2]>>;
 
 /// The plotted lines of a compared channel: (measured, model) segments. Headings are
-/// drawn within ±180° of the measured run's circular mean and split where they wrap (as
-/// in the Plots tab: no 400-540° axis); `step` thins the samples to about two per pixel.
+/// unwrapped sample by sample (`rov_types::angle::nearest_deg` against the previous
+/// sample, the first one within ±180° of the measured run's circular mean), so a turn
+/// through north is a continuous line, not a jump across the whole axis that flattens
+/// everything else; the axis labels read as compass degrees. Segments break only at
+/// missing samples. `step` thins the samples to about two per pixel.
 #[must_use]
 pub fn channel_lines(t: &[f64], ch: &ComparedChannel, step: usize) -> (Segments, Segments) {
     let wraps = ch.name == "heading";
@@ -803,17 +903,13 @@ pub fn channel_lines(t: &[f64], ch: &ComparedChannel, step: usize) -> (Segments,
         for (x, y) in t.iter().zip(ys).step_by(step.max(1)) {
             if !y.is_finite() {
                 out.push(Vec::new());
-                prev = None;
                 continue;
             }
             let y = if wraps {
-                rov_types::angle::nearest_deg(*y, reference)
+                rov_types::angle::nearest_deg(*y, prev.unwrap_or(reference))
             } else {
                 *y
             };
-            if wraps && prev.is_some_and(|p: f64| (y - p).abs() > 180.0) {
-                out.push(Vec::new());
-            }
             if let Some(l) = out.last_mut() {
                 l.push([*x, y]);
             }
@@ -836,7 +932,7 @@ pub fn channel_title(ch: &ComparedChannel) -> String {
     format!("{}: {fit}, RMSE {:.3} {unit}", ch.name, ch.rmse)
 }
 
-fn comparison_plots(ui: &mut Ui, c: Option<&Comparison>) {
+fn comparison_plots(ui: &mut Ui, c: Option<&Comparison>, view_h: f32) {
     let Some(c) = c else {
         ui.label(
             RichText::new("Compare or diagnose to see the model against the measurements.")
@@ -844,29 +940,35 @@ fn comparison_plots(ui: &mut Ui, c: Option<&Comparison>) {
         );
         return;
     };
-    ui.label(
-        RichText::new(format!(
-            "MODEL {} VS MEASURED ({}, free run)",
-            c.model, c.scope
-        ))
-        .strong(),
-    );
+    let which = if c.scope == HELD_OUT {
+        "DIAGNOSE: calibrated on the first two thirds, scored on the held-out third".to_string()
+    } else {
+        format!("COMPARE: {}", c.scope)
+    };
+    ui.label(RichText::new(format!("MODEL {} VS MEASURED, free run", c.model)).strong());
+    ui.label(RichText::new(which).small().strong().color(theme::AMBER));
     let shown: Vec<&ComparedChannel> = c
         .channels
         .iter()
         .filter(|ch| ["depth", "heading", "pitch", "roll"].contains(&ch.name.as_str()))
         .collect();
     let n = shown.len().max(1) as f32;
-    let each = ((ui.available_height() - 8.0) / n).max(70.0);
+    let each = ((view_h - 60.0) / n).max(MIN_PLOT_H);
     let width = ui.available_width().max(100.0) as usize;
     for ch in shown {
         let step = (c.t.len() / (2 * width)).max(1);
         let (meas, pred) = channel_lines(&c.t, ch, step);
-        ui.label(RichText::new(channel_title(ch)).small().strong());
+        ui.horizontal(|ui| {
+            ui.label(RichText::new(channel_title(ch)).small().strong());
+            ui.add_space(12.0);
+            crate::plots::legend_row(
+                ui,
+                [("measured", theme::VALUE), ("model", theme::PREDICTION)].into_iter(),
+            );
+        });
         let unit = channel_unit(&ch.name);
-        let mut plot = Plot::new(("lab_cmp", ch.name.as_str()))
-            .height(each - 22.0)
-            .legend(Legend::default().position(Corner::LeftTop))
+        let mut plot = crate::plots::with_y_ticks(Plot::new(("lab_cmp", ch.name.as_str())))
+            .height(each - 24.0)
             .allow_drag(false)
             .allow_zoom(false)
             .allow_scroll(false)
@@ -956,5 +1058,21 @@ fn verdict_in_words(ui: &mut Ui, diag: &Diagnosis) {
     }
     if diag.closed_loop {
         ui.label(RichText::new("The data was recorded in closed loop.").small());
+    }
+}
+
+#[cfg(test)]
+mod wording_tests {
+    use super::signed_pct;
+
+    /// Issue 25 item 14: no "-0 %".
+    #[test]
+    fn no_negative_zero_percent() {
+        assert_eq!(signed_pct(-0.3), "0");
+        assert_eq!(signed_pct(0.4), "0");
+        assert_eq!(signed_pct(-0.0), "0");
+        assert_eq!(signed_pct(-12.4), "-12");
+        assert_eq!(signed_pct(3.6), "+4");
+        assert_eq!(signed_pct(f64::NAN), "---");
     }
 }

@@ -28,6 +28,7 @@ mod lab_video;
 pub mod layout;
 mod pad_page;
 mod panels;
+pub mod pilot_keys;
 pub mod plots;
 mod replay;
 pub mod screenshot;
@@ -47,7 +48,11 @@ pub use fly::MainView;
 /// The keys the F1 window lists (for tests and documentation).
 #[must_use]
 pub fn help_keys() -> Vec<&'static str> {
-    help::KEYS.iter().map(|(k, _)| *k).collect()
+    help::KEYS
+        .iter()
+        .chain(&pilot_keys::KEYS)
+        .map(|(k, _)| *k)
+        .collect()
 }
 use rov_station::runtime::{Connection, Runtime, RuntimeConfig, StationHandle};
 

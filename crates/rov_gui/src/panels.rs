@@ -10,6 +10,9 @@ use crate::app::StationApp;
 use crate::instruments::{dot_label, group_title, stick_bar};
 use crate::theme;
 
+/// The start of a setpoint entry's error message.
+const NOT_A_NUMBER: &str = "not a number: ";
+
 fn opt(v: Option<f64>, digits: usize, unit: &str) -> String {
     v.map_or_else(|| "---".into(), |x| format!("{x:.digits$} {unit}"))
 }
@@ -120,6 +123,14 @@ fn axis_row(app: &mut StationApp, ui: &mut Ui, axis: Axis, v: &StationView, repl
                 match parsed {
                     Ok(x) if x.is_finite() => {
                         text.clear();
+                        // A valid entry clears an earlier entry error (issue 25 item 10).
+                        if app
+                            .message
+                            .as_deref()
+                            .is_some_and(|m| m.starts_with(NOT_A_NUMBER))
+                        {
+                            app.message = None;
+                        }
                         mode_cmd(
                             app,
                             match axis {
@@ -134,7 +145,7 @@ fn axis_row(app: &mut StationApp, ui: &mut Ui, axis: Axis, v: &StationView, repl
                             },
                         );
                     }
-                    _ => app.message = Some(format!("not a number: {text:?}")),
+                    _ => app.message = Some(format!("{NOT_A_NUMBER}{text:?}")),
                 }
             }
         });

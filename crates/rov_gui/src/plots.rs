@@ -3,8 +3,8 @@
 //! to a min/max pair per pixel column over the visible window, so one hour of data costs
 //! a linear scan of the window per frame and a few thousand vertices.
 
-use egui::{Color32, Ui};
-use egui_plot::{Corner, Legend, Line, Plot, PlotPoints};
+use egui::{Color32, RichText, Ui};
+use egui_plot::{AxisHints, GridInput, GridMark, Line, Plot, PlotPoints};
 use rov_station::runtime::{Channel, History, decimate_min_max};
 
 use crate::app::StationApp;
@@ -194,9 +194,8 @@ pub fn plot(ui: &mut Ui, id: &str, h: &History, series: &[Series], t0: f64, t1: 
     } else {
         None
     };
-    let mut plot = Plot::new(id)
+    let mut plot = with_y_ticks(Plot::new(id))
         .height(height)
-        .legend(Legend::default().position(Corner::LeftTop))
         .link_axis(link, [true, false])
         .link_cursor(link, [true, false])
         .allow_drag(false)
@@ -266,8 +265,194 @@ pub(crate) fn plots_tab(app: &mut StationApp, ui: &mut Ui) {
         ui.label("no data yet");
         return;
     };
+    // One legend for the four plots (the same colours in each), above them, never over
+    // the traces; the measured series is the last of each plot.
+    let mut legend: Vec<(&str, Color32)> = Vec::new();
+    for (_, series) in PLOTS {
+        for (i, s) in series.iter().enumerate() {
+            let name = if i + 1 == series.len() {
+                "measured"
+            } else {
+                s.name
+            };
+            if !legend.iter().any(|(n, _)| *n == name) {
+                legend.push((name, s.color));
+            }
+        }
+    }
+    legend_row(ui, legend.into_iter());
     let each = ((ui.available_height() - 12.0) / 4.0).max(80.0);
     for (name, series) in PLOTS {
         plot(ui, name, h, series, t0, t1, each - 6.0);
+    }
+}
+
+/// Fewest and most labelled Y ticks a plot shows (issue 25 item 8).
+pub const Y_TICKS: std::ops::RangeInclusive<usize> = 3..=5;
+
+/// [`y_ticks`] with at most `max` ticks (at least 3 where the range allows it).
+#[must_use]
+pub fn y_ticks_at_most(lo: f64, hi: f64, max: usize) -> (f64, Vec<f64>) {
+    let (step, t) = y_ticks(lo, hi);
+    if t.len() <= max {
+        return (step, t);
+    }
+    let (lo2, hi2) = if lo <= hi { (lo, hi) } else { (hi, lo) };
+    let mut s = step;
+    for m in [1.25, 1.5, 2.0, 2.5, 3.0, 4.0, 5.0] {
+        let st = step * m;
+        let first = (lo2 / st).ceil() as i64;
+        let last = (hi2 / st).floor() as i64;
+        let t: Vec<f64> = (first..=last).map(|k| k as f64 * st).collect();
+        if t.len() <= max && t.len() >= 3.min(max) {
+            return (st, t);
+        }
+        s = st;
+    }
+    (s, t)
+}
+
+/// The Y ticks for a visible range `lo..hi`: multiples of a round step (1, 2, 2.5 or 5
+/// times a power of ten), 3 to 5 of them inside the range where the range allows it;
+/// (step, tick values).
+#[must_use]
+pub fn y_ticks(lo: f64, hi: f64) -> (f64, Vec<f64>) {
+    let (lo, hi) = if lo <= hi { (lo, hi) } else { (hi, lo) };
+    let span = hi - lo;
+    if !span.is_finite() || span <= 0.0 {
+        return (0.0, Vec::new());
+    }
+    let ticks = |step: f64| -> Vec<f64> {
+        let first = (lo / step).ceil() as i64;
+        let last = (hi / step).floor() as i64;
+        (first..=last).map(|k| k as f64 * step).collect()
+    };
+    let decade = 10f64.powf((span / 10.0).log10().floor());
+    // The roundest steps first; if they jump from more than 5 ticks straight to fewer
+    // than 3, steps at most 1.5 times apart, which always land on 3 to 5: from a step
+    // with 6 or more ticks (span >= 5 steps, < 7 if exactly 6) the next is at most 1.5
+    // times coarser.
+    for mults in [
+        &[1.0, 2.0, 2.5, 5.0][..],
+        &[1.0, 1.5, 2.0, 2.5, 3.0, 4.0, 5.0, 6.0, 8.0],
+    ] {
+        for k in 0..4 {
+            for m in mults {
+                let step = m * decade * 10f64.powi(k);
+                let t = ticks(step);
+                if Y_TICKS.contains(&t.len()) {
+                    return (step, t);
+                }
+                if t.len() < *Y_TICKS.start() {
+                    break;
+                }
+            }
+        }
+    }
+    (span, vec![lo, hi])
+}
+
+/// A Y grid of [`y_ticks`] marks; 3 of them on a plot too short for 4 labels 20 px
+/// apart (egui_plot's `base_step_size` is the value of its 8 px minimum grid spacing).
+fn y_grid(input: GridInput) -> Vec<GridMark> {
+    let (lo, hi) = input.bounds;
+    let px = if input.base_step_size > 0.0 {
+        (hi - lo).abs() / input.base_step_size * 8.0
+    } else {
+        0.0
+    };
+    let (step, mut ticks) = y_ticks(lo, hi);
+    if px < 80.0 && ticks.len() > 3 {
+        // Fewer, wider apart: the coarsest round step that still gives 3.
+        let (s3, t3) = y_ticks_at_most(lo, hi, 3);
+        if t3.len() == 3 {
+            return t3
+                .into_iter()
+                .map(|value| GridMark {
+                    value,
+                    step_size: s3,
+                })
+                .collect();
+        }
+        ticks.truncate(5);
+    }
+    ticks
+        .into_iter()
+        .map(|value| GridMark {
+            value,
+            step_size: step,
+        })
+        .collect()
+}
+
+/// A plot with 3–5 labelled Y ticks: the grid of [`y_ticks`] and labels drawn down to
+/// 12 px apart (egui_plot's default hides labels closer than 20 px, which left short
+/// plots with one label or none).
+pub fn with_y_ticks(plot: Plot<'_>) -> Plot<'_> {
+    plot.custom_y_axes(vec![
+        AxisHints::new_y()
+            .label_spacing(10.0..=12.0)
+            .tick_label_font(egui::FontId::proportional(11.0)),
+    ])
+    .y_grid_spacer(y_grid)
+}
+
+/// The legend as a row of coloured dots above the plot (never over the traces).
+pub fn legend_row<'a>(ui: &mut Ui, items: impl Iterator<Item = (&'a str, Color32)>) {
+    ui.horizontal(|ui| {
+        ui.spacing_mut().item_spacing.x = 10.0;
+        for (name, color) in items {
+            crate::instruments::dot_label(ui, color, RichText::new(name).small());
+        }
+    });
+}
+
+#[cfg(test)]
+mod tick_tests {
+    use super::{Y_TICKS, y_ticks};
+
+    #[test]
+    fn three_to_five_ticks_on_any_range() {
+        for (lo, hi) in [
+            (0.0, 1.0),
+            (-5.0, 5.0),
+            (2.3, 3.4),
+            (0.0, 0.07),
+            (95.0, 118.0),
+            (-180.0, 180.0),
+            (0.0, 360.0),
+            (1.234, 1.239),
+            (-3.1, 47.9),
+            (12.0, 13.0),
+            (0.0, 110.0),
+        ] {
+            let (step, t) = y_ticks(lo, hi);
+            assert!(
+                Y_TICKS.contains(&t.len()),
+                "{lo}..{hi}: step {step} gives {t:?}"
+            );
+            assert!(
+                t.iter().all(|x| (lo - 1e-9..=hi + 1e-9).contains(x)),
+                "{t:?}"
+            );
+        }
+        // Every span from 0.01 to 1000 in small steps, at odd offsets.
+        let mut span = 0.01;
+        while span < 1000.0 {
+            let lo = -0.37 * span;
+            let (_, t) = y_ticks(lo, lo + span);
+            assert!(Y_TICKS.contains(&t.len()), "span {span}: {t:?}");
+            span *= 1.07;
+        }
+        // Short plots: at most 3, and at least 3 where the range allows it.
+        let mut span = 0.01;
+        while span < 1000.0 {
+            let lo = 0.23 * span;
+            let (_, t) = super::y_ticks_at_most(lo, lo + span, 3);
+            assert!((2..=3).contains(&t.len()), "span {span}: {t:?}");
+            span *= 1.11;
+        }
+        assert!(y_ticks(1.0, 1.0).1.is_empty());
+        assert!(y_ticks(f64::NAN, 1.0).1.is_empty());
     }
 }

@@ -14,7 +14,8 @@ pub const SPEEDS: [f64; 7] = [0.1, 0.25, 0.5, 1.0, 2.0, 5.0, 10.0];
 
 fn mmss(t: f64) -> String {
     let s = t.max(0.0);
-    format!("{:02}:{:04.1}", (s / 60.0).floor() as u64, s % 60.0)
+    // Hundredths: a 20 ms control tick (Step) always changes the reading.
+    format!("{:02}:{:05.2}", (s / 60.0).floor() as u64, s % 60.0)
 }
 
 pub(crate) fn replay_bar(app: &mut StationApp, ui: &mut Ui) {
@@ -160,7 +161,7 @@ pub(crate) fn replay_tab(app: &mut StationApp, ui: &mut Ui) {
                 ui.label(name);
                 ui.end_row();
                 ui.label("Duration");
-                ui.label(format!("{:.1} s", r.duration_s));
+                ui.label(format!("{:.2} s", r.duration_s));
                 ui.end_row();
                 ui.label("Messages");
                 ui.label(format!("{}", r.messages));
@@ -170,7 +171,34 @@ pub(crate) fn replay_tab(app: &mut StationApp, ui: &mut Ui) {
             ui.label(RichText::new(format!("warning: {w}")).color(theme::AMBER));
         }
         ui.separator();
-        events_index(app, ui, &r);
+        // The session's camera beside its events, and the session list under them: the
+        // browser stays reachable while a replay is open (issue 25 item 12).
+        let video = crate::video::shown_video(app);
+        let avail = ui.available_size();
+        let right_w = if video.is_some() {
+            (avail.x * 0.45).clamp(240.0, 640.0)
+        } else {
+            0.0
+        };
+        ui.horizontal_top(|ui| {
+            ui.vertical(|ui| {
+                ui.set_width((avail.x - right_w - 12.0).max(200.0));
+                ui.set_max_height(avail.y * 0.55);
+                events_index(app, ui, &r);
+            });
+            if let Some(video) = video {
+                ui.vertical(|ui| {
+                    let h = right_w * 9.0 / 16.0;
+                    let (rect, _) = ui.allocate_exact_size(vec2(right_w, h), egui::Sense::hover());
+                    let status = video.status();
+                    app.video_pane.paint(ui, rect, &video, &status);
+                });
+            }
+        });
+        ui.separator();
+        egui::CollapsingHeader::new("Sessions in the recordings folder")
+            .default_open(true)
+            .show(ui, |ui| session_list(app, ui));
     }
 }
 

@@ -173,7 +173,7 @@ pub(crate) fn status_strip(
 ) {
     let p = ui.painter_at(rect);
     let font = FontId::monospace(14.0);
-    let mut x = rect.min.x + 150.0;
+    let mut x = crate::fly::hud_layout(rect).status.min.x;
     let y = rect.max.y - 8.0;
     let mut put = |text: String, color: Color32| {
         let r = plate(

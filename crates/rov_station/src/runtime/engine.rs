@@ -137,6 +137,10 @@ const HINT_US: u64 = 4_000_000;
 /// The hint after a short press of the arm button.
 pub const ARM_HINT: &str = "Hold to arm: keep the arm button (or Space) pressed for 1 s";
 
+/// The hint when a hold stopped being reported (the GUI or gamepad froze for over 1 s).
+pub const ARM_STALE_HINT: &str =
+    "Arming cancelled: the station lost the held button for over 1 s (press and hold again)";
+
 fn axis_mode(m: AxisMode) -> Mode {
     match m {
         AxisMode::Manual => Mode::Manual,
@@ -545,6 +549,9 @@ impl Engine {
         let (raw, input) = self.pilot_input(link, now_us);
         let arm_gui = self.arm.poll(now_us);
         let arm_pad = self.arm_pad.poll(now_us);
+        if self.arm.take_went_stale() || self.arm_pad.take_went_stale() {
+            self.hint(ARM_STALE_HINT, now_us);
+        }
         if (arm_gui || arm_pad) && !link.failsafe().is_armed() {
             match self.core.command(link, StationCommand::Arm, now_us) {
                 Ok(()) => self.pipeline.view.last_refusal = None,

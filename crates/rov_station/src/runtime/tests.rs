@@ -280,10 +280,27 @@ fn holding_the_arm_button_one_second_arms_and_a_short_press_does_not() {
     st.advance(1.0).unwrap();
     assert!(!h.view().snapshot.armed);
     assert_eq!(h.view().pilot.arm_progress, 0.0);
-    // Held but not refreshed (a frozen GUI): cancelled.
+    // Held but not refreshed (a frozen GUI): cancelled, and the pilot is told why.
     h.command(RuntimeCommand::ArmButton(true));
     st.advance(1.5).unwrap();
     assert!(!h.view().snapshot.armed);
+    assert!(
+        h.view()
+            .hint
+            .as_deref()
+            .is_some_and(|s| s.contains("Arming cancelled")),
+        "{:?}",
+        h.view().hint
+    );
+    h.command(RuntimeCommand::ArmButton(false));
+    st.advance(0.1).unwrap();
+    // A GUI refreshing only every 400 ms (a loaded laptop) still arms.
+    for _ in 0..4 {
+        h.command(RuntimeCommand::ArmButton(true));
+        st.advance(0.4).unwrap();
+    }
+    assert!(h.view().snapshot.armed, "{:?}", h.view().hint);
+    h.command(RuntimeCommand::ArmButton(false));
     drop(st);
     let (_st, h) = virtual_armed();
     h.send(StationCommand::Disarm);
