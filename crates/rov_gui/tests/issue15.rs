@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{FRAME_S, rig};
+use common::{FRAME_S, config, rig, rig_config};
 use egui::Key;
 use rov_gui::Tab;
 
@@ -223,8 +223,12 @@ fn item6_messages_say_what_is_missing_once() {
 /// Item 6: "cannot arm" once in a refusal.
 #[test]
 fn item6_an_arm_refusal_says_cannot_arm_once() {
-    let mut r = rig("refusal.mcap");
-    // Before the link is healthy long enough, arming is refused.
+    // Before the link is healthy long enough, arming is refused: a station that asks for
+    // 5 s of healthy link, so the 1-s hold completes well before (the hold now completes
+    // at the first held report >= 1 s after the press, which may be a frame after 1 s).
+    let mut cfg = config();
+    cfg.link.arm_min_healthy_us = 5_000_000;
+    let mut r = rig_config("refusal.mcap", egui::vec2(1280.0, 800.0), cfg);
     r.harness.state_mut().set_tab(Tab::Fly);
     r.harness.key_down(Key::Space);
     r.run(1.3);
