@@ -6,6 +6,7 @@
 //! * [`series`]: thrust [`Schedule`]s, [`run_schedule`] (truth through the sensors as a
 //!   measurement series) and the model-prediction series ([`predict_schedule`],
 //!   [`predict_inputs`], [`predict_measured`]).
+//! * [`fault`]: the `--fault` grammar ([`FaultSpec`], issue 23).
 //! * [`paper`]: seed 000's experiments as named schedules.
 //! * [`reference`]: parser and runner for the Fossen reference parameter files
 //!   (`topside sim reference`).
@@ -17,12 +18,14 @@
 )]
 
 pub mod error;
+pub mod fault;
 pub mod paper;
 pub mod reference;
 pub mod series;
 pub mod simulator;
 
 pub use error::SimError;
+pub use fault::{DepthSensorFault, FaultKind, FaultSpec, FaultSpecError, Thruster};
 pub use paper::{Experiment, experiments};
 pub use series::{
     Schedule, ScheduleStep, predict_inputs, predict_measured, predict_schedule, run_schedule,

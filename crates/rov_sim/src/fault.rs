@@ -1,0 +1,405 @@
+//! Faults the simulated vehicle can suffer (issue 23): the `--fault SPEC` grammar.
+//!
+//! `SPEC = KIND[:TARGET][:SIZE]@T_S`, for example
+//!
+//! | spec | meaning |
+//! |---|---|
+//! | `thrust-loss:port:0.4@300` | the port thruster gives 60 % of its thrust from t = 300 s |
+//! | `buoyancy:3@200` | the vehicle is 3 N heavier from t = 200 s (negative: lighter) |
+//! | `drag:2.5@100` | hydrodynamic drag ×2.5 from t = 100 s |
+//! | `snag:15@250` | a 15 N pull towards the dive's start point from t = 250 s |
+//! | `depth-sensor:stuck@120` | the depth sensor repeats its last value from t = 120 s |
+//! | `depth-sensor:jump:0.5@120` | the depth sensor reads 0.5 m deeper from t = 120 s |
+//! | `compass:25@90` | a 25° heading disturbance from t = 90 s |
+//!
+//! Parsing is pure (no clock, no I/O); an error says where in the spec it went wrong
+//! and what was allowed. `T_S` is seconds of the simulator's (virtual) time.
+
+use std::fmt;
+
+/// One of the Pro 4's three thrusters.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Thruster {
+    /// Port (left) horizontal thruster.
+    Port,
+    /// Starboard (right) horizontal thruster.
+    Starboard,
+    /// Vertical thruster.
+    Vertical,
+}
+
+impl Thruster {
+    /// The name used in specs and cause ids (`port`, `starboard`, `vertical`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Thruster::Port => "port",
+            Thruster::Starboard => "starboard",
+            Thruster::Vertical => "vertical",
+        }
+    }
+}
+
+/// How the depth sensor fails.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum DepthSensorFault {
+    /// Repeats the last reading before the fault.
+    Stuck,
+    /// Reads this many metres too deep (negative: too shallow).
+    Jump {
+        /// Offset added to the reading, m.
+        offset_m: f64,
+    },
+}
+
+/// What goes wrong.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum FaultKind {
+    /// A thruster loses this fraction (0..=1) of its thrust.
+    ThrustLoss {
+        /// Which thruster.
+        thruster: Thruster,
+        /// Fraction of thrust lost, 0..=1.
+        fraction: f64,
+    },
+    /// The vehicle becomes heavier by this net force (negative: lighter), N.
+    Buoyancy {
+        /// Added weight, N (positive = heavier).
+        heavier_n: f64,
+    },
+    /// Hydrodynamic drag multiplied by this factor (> 0).
+    Drag {
+        /// Drag factor.
+        factor: f64,
+    },
+    /// A horizontal pull towards the dive's start point, N.
+    Snag {
+        /// Pull, N.
+        force_n: f64,
+    },
+    /// Depth sensor failure.
+    DepthSensor(DepthSensorFault),
+    /// Compass disturbance, degrees added to the heading reading.
+    Compass {
+        /// Disturbance, deg.
+        offset_deg: f64,
+    },
+}
+
+/// A fault and when it starts.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FaultSpec {
+    /// What goes wrong.
+    pub kind: FaultKind,
+    /// Virtual time from which it applies, s.
+    pub start_s: f64,
+}
+
+/// Why a fault spec does not parse: the spec, the character offset of the bad part,
+/// and what was expected there.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("fault spec `{spec}` at character {offset}: {detail}")]
+pub struct FaultSpecError {
+    /// The whole spec as given.
+    pub spec: String,
+    /// Character offset (0-based) of the part that is wrong.
+    pub offset: usize,
+    /// What is wrong and what is allowed.
+    pub detail: String,
+}
+
+/// The fault kinds, as written in specs.
+pub const FAULT_KINDS: [&str; 6] = [
+    "thrust-loss",
+    "buoyancy",
+    "drag",
+    "snag",
+    "depth-sensor",
+    "compass",
+];
+
+/// Default jump of `depth-sensor:jump` without a size, m.
+pub const DEFAULT_DEPTH_JUMP_M: f64 = 1.0;
+
+impl FaultSpec {
+    /// Parses `KIND[:TARGET][:SIZE]@T_S`.
+    pub fn parse(spec: &str) -> Result<Self, FaultSpecError> {
+        let err = |offset: usize, detail: String| FaultSpecError {
+            spec: spec.to_string(),
+            offset,
+            detail,
+        };
+        let Some(at) = spec.rfind('@') else {
+            return Err(err(
+                spec.chars().count(),
+                "missing `@T_S` (the start time in seconds)".into(),
+            ));
+        };
+        let body = &spec[..at];
+        let time_text = &spec[at + 1..];
+        let time_off = spec[..at + 1].chars().count();
+        let start_s = parse_number(time_text)
+            .filter(|t| *t >= 0.0)
+            .ok_or_else(|| {
+                err(
+                    time_off,
+                    format!("start time `{time_text}` is not a number of seconds ≥ 0"),
+                )
+            })?;
+        // Split the body into fields with their character offsets.
+        let mut fields: Vec<(usize, &str)> = Vec::new();
+        let mut off = 0usize;
+        for part in body.split(':') {
+            fields.push((off, part));
+            off += part.chars().count() + 1;
+        }
+        let (kind_off, kind_text) = fields.first().copied().unwrap_or((0, ""));
+        let rest = fields.get(1..).unwrap_or(&[]);
+        let size = |idx: usize, what: &str, ok: &dyn Fn(f64) -> bool, range: &str| {
+            let (o, t) = rest.get(idx).copied().ok_or_else(|| {
+                err(
+                    time_off.saturating_sub(1),
+                    format!("`{kind_text}` needs a size ({what}, {range})"),
+                )
+            })?;
+            parse_number(t)
+                .filter(|v| ok(*v))
+                .ok_or_else(|| err(o, format!("{what} `{t}` is not a number in {range}")))
+        };
+        let too_many = |n: usize| -> Result<(), FaultSpecError> {
+            match rest.get(n) {
+                Some((o, t)) => Err(err(
+                    *o,
+                    format!("unexpected field `{t}` (`{kind_text}` takes {n} field(s))"),
+                )),
+                None => Ok(()),
+            }
+        };
+        let kind = match kind_text {
+            "thrust-loss" => {
+                let (o, t) = rest.first().copied().ok_or_else(|| {
+                    err(
+                        time_off.saturating_sub(1),
+                        "`thrust-loss` needs a thruster (port, starboard, vertical)".into(),
+                    )
+                })?;
+                let thruster = match t {
+                    "port" => Thruster::Port,
+                    "starboard" => Thruster::Starboard,
+                    "vertical" => Thruster::Vertical,
+                    _ => {
+                        return Err(err(
+                            o,
+                            format!("thruster `{t}` is not one of port, starboard, vertical"),
+                        ));
+                    }
+                };
+                let fraction = size(1, "fraction lost", &|v| (0.0..=1.0).contains(&v), "0..=1")?;
+                too_many(2)?;
+                FaultKind::ThrustLoss { thruster, fraction }
+            }
+            "buoyancy" => {
+                let heavier_n = size(0, "added weight in N", &|v| v.abs() <= 200.0, "-200..=200")?;
+                too_many(1)?;
+                FaultKind::Buoyancy { heavier_n }
+            }
+            "drag" => {
+                let factor = size(0, "drag factor", &|v| v > 0.0 && v <= 20.0, "(0, 20]")?;
+                too_many(1)?;
+                FaultKind::Drag { factor }
+            }
+            "snag" => {
+                let force_n = size(0, "pull in N", &|v| (0.0..=500.0).contains(&v), "0..=500")?;
+                too_many(1)?;
+                FaultKind::Snag { force_n }
+            }
+            "depth-sensor" => {
+                let (o, t) = rest.first().copied().ok_or_else(|| {
+                    err(
+                        time_off.saturating_sub(1),
+                        "`depth-sensor` needs a mode (stuck, jump)".into(),
+                    )
+                })?;
+                match t {
+                    "stuck" => {
+                        too_many(1)?;
+                        FaultKind::DepthSensor(DepthSensorFault::Stuck)
+                    }
+                    "jump" => {
+                        let offset_m = if rest.get(1).is_some() {
+                            size(1, "jump in m", &|v| v.abs() <= 100.0, "-100..=100")?
+                        } else {
+                            DEFAULT_DEPTH_JUMP_M
+                        };
+                        too_many(2)?;
+                        FaultKind::DepthSensor(DepthSensorFault::Jump { offset_m })
+                    }
+                    _ => {
+                        return Err(err(
+                            o,
+                            format!("depth-sensor mode `{t}` is not one of stuck, jump"),
+                        ));
+                    }
+                }
+            }
+            "compass" => {
+                let offset_deg =
+                    size(0, "disturbance in deg", &|v| v.abs() <= 180.0, "-180..=180")?;
+                too_many(1)?;
+                FaultKind::Compass { offset_deg }
+            }
+            _ => {
+                return Err(err(
+                    kind_off,
+                    format!(
+                        "fault kind `{kind_text}` is not one of {}",
+                        FAULT_KINDS.join(", ")
+                    ),
+                ));
+            }
+        };
+        Ok(FaultSpec { kind, start_s })
+    }
+
+    /// Whether the fault applies at virtual time `t_s`.
+    pub fn active_at(&self, t_s: f64) -> bool {
+        t_s >= self.start_s
+    }
+}
+
+impl std::str::FromStr for FaultSpec {
+    type Err = FaultSpecError;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        FaultSpec::parse(s)
+    }
+}
+
+impl fmt::Display for FaultSpec {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self.kind {
+            FaultKind::ThrustLoss { thruster, fraction } => {
+                write!(f, "thrust-loss:{}:{fraction}", thruster.name())?
+            }
+            FaultKind::Buoyancy { heavier_n } => write!(f, "buoyancy:{heavier_n}")?,
+            FaultKind::Drag { factor } => write!(f, "drag:{factor}")?,
+            FaultKind::Snag { force_n } => write!(f, "snag:{force_n}")?,
+            FaultKind::DepthSensor(DepthSensorFault::Stuck) => write!(f, "depth-sensor:stuck")?,
+            FaultKind::DepthSensor(DepthSensorFault::Jump { offset_m }) => {
+                write!(f, "depth-sensor:jump:{offset_m}")?
+            }
+            FaultKind::Compass { offset_deg } => write!(f, "compass:{offset_deg}")?,
+        }
+        write!(f, "@{}", self.start_s)
+    }
+}
+
+/// A finite number, or `None`.
+fn parse_number(text: &str) -> Option<f64> {
+    text.trim().parse::<f64>().ok().filter(|v| v.is_finite())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parses_the_issue_examples() {
+        let cases = [
+            (
+                "thrust-loss:port:0.4@300",
+                FaultKind::ThrustLoss {
+                    thruster: Thruster::Port,
+                    fraction: 0.4,
+                },
+                300.0,
+            ),
+            (
+                "buoyancy:3@200",
+                FaultKind::Buoyancy { heavier_n: 3.0 },
+                200.0,
+            ),
+            ("drag:2.5@100", FaultKind::Drag { factor: 2.5 }, 100.0),
+            ("snag:15@250", FaultKind::Snag { force_n: 15.0 }, 250.0),
+            (
+                "depth-sensor:stuck@120",
+                FaultKind::DepthSensor(DepthSensorFault::Stuck),
+                120.0,
+            ),
+            (
+                "compass:25@90",
+                FaultKind::Compass { offset_deg: 25.0 },
+                90.0,
+            ),
+        ];
+        for (spec, kind, start_s) in cases {
+            let f = FaultSpec::parse(spec).unwrap();
+            assert_eq!(f, FaultSpec { kind, start_s }, "{spec}");
+            // Display reads back to the same fault.
+            assert_eq!(FaultSpec::parse(&f.to_string()).unwrap(), f);
+        }
+    }
+
+    #[test]
+    fn depth_jump_has_a_default_and_a_size() {
+        assert_eq!(
+            FaultSpec::parse("depth-sensor:jump@5").unwrap().kind,
+            FaultKind::DepthSensor(DepthSensorFault::Jump {
+                offset_m: DEFAULT_DEPTH_JUMP_M
+            })
+        );
+        assert_eq!(
+            FaultSpec::parse("depth-sensor:jump:-0.5@5").unwrap().kind,
+            FaultKind::DepthSensor(DepthSensorFault::Jump { offset_m: -0.5 })
+        );
+    }
+
+    #[test]
+    fn errors_are_located() {
+        let e = FaultSpec::parse("thrust-loss:port:0.4").unwrap_err();
+        assert!(e.detail.contains("@T_S"), "{e}");
+        assert_eq!(e.offset, 20);
+        let e = FaultSpec::parse("thrust-loss:aft:0.4@3").unwrap_err();
+        assert_eq!(e.offset, 12, "{e}");
+        assert!(e.detail.contains("port, starboard, vertical"));
+        let e = FaultSpec::parse("thrust-loss:port:1.5@3").unwrap_err();
+        assert_eq!(e.offset, 17, "{e}");
+        assert!(e.detail.contains("0..=1"));
+        let e = FaultSpec::parse("wobble:3@3").unwrap_err();
+        assert_eq!(e.offset, 0);
+        assert!(e.detail.contains("compass"));
+        let e = FaultSpec::parse("drag:2@soon").unwrap_err();
+        assert_eq!(e.offset, 7);
+        let e = FaultSpec::parse("drag:2:3@1").unwrap_err();
+        assert_eq!(e.offset, 7, "{e}");
+        let e = FaultSpec::parse("buoyancy@1").unwrap_err();
+        assert!(e.detail.contains("needs a size"), "{e}");
+        let e = FaultSpec::parse("drag:NaN@1").unwrap_err();
+        assert_eq!(e.offset, 5);
+        let e = FaultSpec::parse("compass:10@-1").unwrap_err();
+        assert_eq!(e.offset, 11);
+        // The message names the spec.
+        assert!(e.to_string().contains("compass:10@-1"));
+    }
+
+    #[test]
+    fn bad_input_never_panics() {
+        for s in [
+            "",
+            "@",
+            ":",
+            "::@",
+            "@@",
+            "é:é@é",
+            "thrust-loss@1",
+            "depth-sensor:@1",
+        ] {
+            assert!(FaultSpec::parse(s).is_err(), "{s}");
+        }
+    }
+
+    #[test]
+    fn active_from_its_start() {
+        let f = FaultSpec::parse("drag:2@10").unwrap();
+        assert!(!f.active_at(9.99));
+        assert!(f.active_at(10.0));
+    }
+}
