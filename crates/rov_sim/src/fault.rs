@@ -17,6 +17,11 @@
 
 use std::fmt;
 
+use nalgebra::Vector3;
+use rov_dynamics::Vector6;
+use rov_dynamics::kinematics::Attitude;
+use rov_dynamics::models::ExternalForce;
+
 /// One of the Pro 4's three thrusters.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Thruster {
@@ -292,6 +297,48 @@ impl fmt::Display for FaultSpec {
     }
 }
 
+/// The force faults (`buoyancy`, `snag`) as an external force on the truth model, each
+/// from its start time. Both act at the origin CO of the body frame (a choice: where a
+/// snagged line or the added weight attaches is unknown, so no moment is modelled).
+#[derive(Debug, Clone, PartialEq)]
+pub struct FaultForce {
+    /// The faults (only `buoyancy` and `snag` act here; the others are ignored).
+    pub faults: Vec<FaultSpec>,
+    /// The dive's start point in NED (north, east), m: where a snag pulls towards.
+    pub start_ne_m: [f64; 2],
+}
+
+impl FaultForce {
+    /// The NED force of the active force faults at `t_s` with the vehicle at `eta`, N.
+    pub fn force_ned_n(&self, t_s: f64, eta: &Vector6) -> Vector3<f64> {
+        let mut f = Vector3::zeros();
+        for fault in self.faults.iter().filter(|f| f.active_at(t_s)) {
+            match fault.kind {
+                FaultKind::Buoyancy { heavier_n } => f.z += heavier_n,
+                FaultKind::Snag { force_n } => {
+                    let dn = self.start_ne_m[0] - eta[0];
+                    let de = self.start_ne_m[1] - eta[1];
+                    let dist_m = dn.hypot(de);
+                    if dist_m > 1e-6 {
+                        f.x += force_n * dn / dist_m;
+                        f.y += force_n * de / dist_m;
+                    }
+                }
+                _ => {}
+            }
+        }
+        f
+    }
+}
+
+impl ExternalForce for FaultForce {
+    fn tau_body(&self, time_s: f64, eta: &Vector6, _nu: &Vector6) -> Vector6 {
+        let f_ned = self.force_ned_n(time_s, eta);
+        let f_body = Attitude::from_eta(eta).ned_from_body().transpose() * f_ned;
+        Vector6::new(f_body.x, f_body.y, f_body.z, 0.0, 0.0, 0.0)
+    }
+}
+
 /// A finite number, or `None`.
 fn parse_number(text: &str) -> Option<f64> {
     text.trim().parse::<f64>().ok().filter(|v| v.is_finite())
@@ -401,5 +448,34 @@ mod tests {
         let f = FaultSpec::parse("drag:2@10").unwrap();
         assert!(!f.active_at(9.99));
         assert!(f.active_at(10.0));
+    }
+    #[test]
+    fn buoyancy_pushes_down_and_snag_pulls_home() {
+        let ff = FaultForce {
+            faults: vec![
+                FaultSpec::parse("buoyancy:3@10").unwrap(),
+                FaultSpec::parse("snag:15@20").unwrap(),
+            ],
+            start_ne_m: [0.0, 0.0],
+        };
+        // Vehicle 3 m north, 4 m east, heading east (yaw 90°).
+        let eta = Vector6::new(3.0, 4.0, 5.0, 0.0, 0.0, std::f64::consts::FRAC_PI_2);
+        assert_eq!(ff.tau_body(5.0, &eta, &Vector6::zeros()), Vector6::zeros());
+        let t = ff.tau_body(15.0, &eta, &Vector6::zeros());
+        assert!((t[2] - 3.0).abs() < 1e-12 && t[0].abs() < 1e-12, "{t:?}");
+        let f = ff.force_ned_n(25.0, &eta);
+        assert!(
+            (f.x + 9.0).abs() < 1e-12 && (f.y + 12.0).abs() < 1e-12,
+            "{f:?}"
+        );
+        // In body axes (facing east) the pull home is mostly backwards and to port.
+        let t = ff.tau_body(25.0, &eta, &Vector6::zeros());
+        assert!(
+            (t[0] + 12.0).abs() < 1e-9 && (t[1] - 9.0).abs() < 1e-9,
+            "{t:?}"
+        );
+        // At the start point a snag has no direction and gives no force.
+        let home = Vector6::new(0.0, 0.0, 5.0, 0.0, 0.0, 0.0);
+        assert!((ff.force_ned_n(25.0, &home).x).abs() < 1e-12);
     }
 }

@@ -25,7 +25,7 @@ pub mod series;
 pub mod simulator;
 
 pub use error::SimError;
-pub use fault::{DepthSensorFault, FaultKind, FaultSpec, FaultSpecError, Thruster};
+pub use fault::{DepthSensorFault, FaultForce, FaultKind, FaultSpec, FaultSpecError, Thruster};
 pub use paper::{Experiment, experiments};
 pub use series::{
     Schedule, ScheduleStep, predict_inputs, predict_measured, predict_schedule, run_schedule,
