@@ -21,6 +21,8 @@ use nalgebra::Vector3;
 use rov_dynamics::Vector6;
 use rov_dynamics::kinematics::Attitude;
 use rov_dynamics::models::ExternalForce;
+use rov_dynamics::sensors::SensorReadings;
+use rov_types::angle::{wrap_2pi, wrap_deg_360};
 
 /// One of the Pro 4's three thrusters.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -339,6 +341,57 @@ impl ExternalForce for FaultForce {
     }
 }
 
+/// What the sensor faults remember between samples (the reading a stuck sensor repeats).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct SensorFaultState {
+    /// Depth from pressure, absolute pressure (SI) and the Pro 4 pressure field held by a
+    /// stuck depth sensor.
+    held_depth: Option<(f64, f64, i16)>,
+}
+
+/// Applies the active sensor faults (`depth-sensor`, `compass`) at the readings' time to
+/// `readings`, which the sensors have just produced. `mbar_per_m` converts a depth jump
+/// into pressure (ρ g / 100 of the sensor settings). The compass disturbance is added to
+/// the heading output (SI and the Pro 4 field); the raw magnetometer is left as measured
+/// (a choice: the Pro 4's heading is what the station reads).
+pub fn apply_sensor_faults(
+    faults: &[FaultSpec],
+    state: &mut SensorFaultState,
+    readings: &mut SensorReadings,
+    mbar_per_m: f64,
+) {
+    let t_s = readings.time_s;
+    for fault in faults.iter().filter(|f| f.active_at(t_s)) {
+        match fault.kind {
+            FaultKind::DepthSensor(DepthSensorFault::Stuck) => {
+                let held = *state.held_depth.get_or_insert((
+                    readings.depth_from_pressure_m,
+                    readings.pressure_mbar,
+                    readings.pro4.pressure_mbar,
+                ));
+                readings.depth_from_pressure_m = held.0;
+                readings.pressure_mbar = held.1;
+                readings.pro4.pressure_mbar = held.2;
+            }
+            FaultKind::DepthSensor(DepthSensorFault::Jump { offset_m }) => {
+                readings.depth_from_pressure_m += offset_m;
+                readings.pressure_mbar += offset_m * mbar_per_m;
+                readings.pro4.pressure_mbar = readings
+                    .pressure_mbar
+                    .round()
+                    .clamp(f64::from(i16::MIN), f64::from(i16::MAX))
+                    as i16;
+            }
+            FaultKind::Compass { offset_deg } => {
+                readings.heading_rad = wrap_2pi(readings.heading_rad + offset_deg.to_radians());
+                let deci = (wrap_deg_360(readings.heading_rad.to_degrees()) * 10.0).round();
+                readings.pro4.heading_deci_deg = (deci as i16).rem_euclid(3600);
+            }
+            _ => {}
+        }
+    }
+}
+
 /// A finite number, or `None`.
 fn parse_number(text: &str) -> Option<f64> {
     text.trim().parse::<f64>().ok().filter(|v| v.is_finite())
@@ -477,5 +530,53 @@ mod tests {
         // At the start point a snag has no direction and gives no force.
         let home = Vector6::new(0.0, 0.0, 5.0, 0.0, 0.0, 0.0);
         assert!((ff.force_ned_n(25.0, &home).x).abs() < 1e-12);
+    }
+    #[test]
+    fn depth_sensor_sticks_or_jumps_and_compass_turns() {
+        let mut r = SensorReadings {
+            time_s: 0.0,
+            accel_body_mps2: Vector3::zeros(),
+            gyro_body_radps: Vector3::zeros(),
+            mag_body_ut: Vector3::zeros(),
+            dvl_mps: Vector3::zeros(),
+            transponder_ned_m: Vector3::zeros(),
+            pressure_mbar: 1113.25,
+            depth_from_pressure_m: 1.0,
+            heading_rad: 350f64.to_radians(),
+            pitch_rad: 0.0,
+            roll_rad: 0.0,
+            pro4: Default::default(),
+        };
+        let stuck = [FaultSpec::parse("depth-sensor:stuck@1").unwrap()];
+        let mut st = SensorFaultState::default();
+        let mut a = r;
+        apply_sensor_faults(&stuck, &mut st, &mut a, 98.1);
+        assert_eq!(a, r, "not active before its start");
+        r.time_s = 1.0;
+        let mut a = r;
+        apply_sensor_faults(&stuck, &mut st, &mut a, 98.1);
+        r.time_s = 2.0;
+        r.depth_from_pressure_m = 3.0;
+        r.pressure_mbar = 1307.55;
+        let mut b = r;
+        apply_sensor_faults(&stuck, &mut st, &mut b, 98.1);
+        assert_eq!(b.depth_from_pressure_m, 1.0, "stuck at the onset value");
+        assert_eq!(b.pressure_mbar, 1113.25);
+
+        let jump = [FaultSpec::parse("depth-sensor:jump:0.5@0").unwrap()];
+        let mut c = r;
+        apply_sensor_faults(&jump, &mut SensorFaultState::default(), &mut c, 98.1);
+        assert!((c.depth_from_pressure_m - 3.5).abs() < 1e-12);
+        assert!((c.pressure_mbar - (1307.55 + 49.05)).abs() < 1e-9);
+        assert_eq!(c.pro4.pressure_mbar, 1357);
+
+        let compass = [FaultSpec::parse("compass:25@0").unwrap()];
+        let mut d = r;
+        apply_sensor_faults(&compass, &mut SensorFaultState::default(), &mut d, 98.1);
+        assert!(
+            (d.heading_rad.to_degrees() - 15.0).abs() < 1e-9,
+            "wraps past north"
+        );
+        assert_eq!(d.pro4.heading_deci_deg, 150);
     }
 }

@@ -25,7 +25,10 @@ pub mod series;
 pub mod simulator;
 
 pub use error::SimError;
-pub use fault::{DepthSensorFault, FaultForce, FaultKind, FaultSpec, FaultSpecError, Thruster};
+pub use fault::{
+    DepthSensorFault, FaultForce, FaultKind, FaultSpec, FaultSpecError, SensorFaultState, Thruster,
+    apply_sensor_faults,
+};
 pub use paper::{Experiment, experiments};
 pub use series::{
     Schedule, ScheduleStep, predict_inputs, predict_measured, predict_schedule, run_schedule,
