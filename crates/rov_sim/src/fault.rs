@@ -18,17 +18,20 @@
 use std::fmt;
 
 use nalgebra::Vector3;
-use rov_dynamics::Vector6;
+use rov_dynamics::current::CurrentRamp;
 use rov_dynamics::kinematics::Attitude;
 use rov_dynamics::models::ExternalForce;
+use rov_dynamics::models::{ModelState, VehicleModel};
 use rov_dynamics::sensors::SensorReadings;
+use rov_dynamics::{Matrix6, ThrustPct, ThrusterForces, Vector6};
 use rov_types::angle::{wrap_2pi, wrap_deg_360};
 
 /// One of the Pro 4's three thrusters.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[repr(usize)]
 pub enum Thruster {
     /// Port (left) horizontal thruster.
-    Port,
+    Port = 0,
     /// Starboard (right) horizontal thruster.
     Starboard,
     /// Vertical thruster.
@@ -338,6 +341,129 @@ impl ExternalForce for FaultForce {
         let f_ned = self.force_ned_n(time_s, eta);
         let f_body = Attitude::from_eta(eta).ned_from_body().transpose() * f_ned;
         Vector6::new(f_body.x, f_body.y, f_body.z, 0.0, 0.0, 0.0)
+    }
+}
+
+/// The fault force τ_ext over one simulator step: the user's external force, the force
+/// faults ([`FaultForce`]), the thrust lost by `thrust-loss` faults (constant over the
+/// step, like the command) and the extra drag of a `drag` fault.
+///
+/// `drag:K` multiplies the model's hydrodynamic damping and Coriolis force of the motion
+/// through the water by K: the extra force is (K−1)·M·(ν̇(ν) − ν̇(ν_c)) with τ = 0, where
+/// ν_c is the body velocity of the water (zero relative velocity) and M is recovered from
+/// the model's response to unit forces (so any model, also a lab-learned one, gets it).
+#[derive(Debug)]
+pub(crate) struct FaultTau<'a> {
+    pub user: Option<&'a dyn ExternalForce>,
+    pub force: &'a FaultForce,
+    pub thrust_loss_tau: Vector6,
+    /// (K − 1, M, the model and the current) of an active drag fault.
+    pub drag: Option<DragExtra<'a>>,
+}
+
+/// What a drag fault needs to compute its force.
+#[derive(Debug)]
+pub(crate) struct DragExtra<'a> {
+    pub extra_factor: f64,
+    pub mass: Matrix6,
+    pub model: &'a dyn VehicleModel,
+    pub current: CurrentRamp,
+}
+
+impl DragExtra<'_> {
+    fn tau(&self, time_s: f64, eta: &Vector6, nu: &Vector6) -> Vector6 {
+        let current = self.current.at(time_s);
+        let att = Attitude::from_eta(eta);
+        let vc_body = att.ned_from_body().transpose() * current.vel_ned_mps;
+        let mut nu_c = *nu;
+        nu_c[0] = vc_body.x;
+        nu_c[1] = vc_body.y;
+        nu_c[2] = vc_body.z;
+        for k in 3..6 {
+            nu_c[k] = 0.0;
+        }
+        let zero = Vector6::zeros();
+        let a = self
+            .model
+            .dynamics(&ModelState::new(*eta, *nu), &zero, &current)
+            .nu;
+        let a0 = self
+            .model
+            .dynamics(&ModelState::new(*eta, nu_c), &zero, &current)
+            .nu;
+        self.mass * (a - a0) * self.extra_factor
+    }
+}
+
+/// The mass matrix M of `model` at `state` from its response to unit forces (the
+/// pseudo-inverse of the columns of M⁻¹, so DOFs the model does not move get zero).
+pub(crate) fn probe_mass(model: &dyn VehicleModel, state: &ModelState) -> Matrix6 {
+    let still = CurrentRamp::default().at(0.0);
+    let base = model.dynamics(state, &Vector6::zeros(), &still).nu;
+    let mut m_inv = Matrix6::zeros();
+    for j in 0..6 {
+        let mut e = Vector6::zeros();
+        e[j] = 1.0;
+        let col = model.dynamics(state, &e, &still).nu - base;
+        m_inv.set_column(j, &col);
+    }
+    m_inv
+        .pseudo_inverse(1e-9)
+        .unwrap_or_else(|_| Matrix6::zeros())
+}
+
+/// τ of the thrust lost by the active `thrust-loss` faults at `t_s` (the thrusters'
+/// forces scaled by the fraction lost, through the model's allocation, which is linear).
+pub(crate) fn thrust_loss_tau(
+    faults: &[FaultSpec],
+    t_s: f64,
+    model: &dyn VehicleModel,
+    cmd: &ThrustPct,
+    state: &ModelState,
+) -> Vector6 {
+    let mut kept = [1.0f64; 3];
+    for f in faults.iter().filter(|f| f.active_at(t_s)) {
+        if let FaultKind::ThrustLoss { thruster, fraction } = f.kind {
+            let i = thruster as usize;
+            if let Some(k) = kept.get_mut(i) {
+                *k *= 1.0 - fraction;
+            }
+        }
+    }
+    if kept.iter().all(|k| *k == 1.0) {
+        return Vector6::zeros();
+    }
+    let forces = model.thruster_forces(cmd, state);
+    let lost = ThrusterForces {
+        port_n: forces.port_n * (1.0 - kept[0]),
+        starboard_n: forces.starboard_n * (1.0 - kept[1]),
+        vertical_n: forces.vertical_n * (1.0 - kept[2]),
+    };
+    -model.generalized_force(&lost, state)
+}
+
+/// The drag factor of the active `drag` faults at `t_s` (their product; 1 without one).
+pub fn drag_factor(faults: &[FaultSpec], t_s: f64) -> f64 {
+    faults
+        .iter()
+        .filter(|f| f.active_at(t_s))
+        .filter_map(|f| match f.kind {
+            FaultKind::Drag { factor } => Some(factor),
+            _ => None,
+        })
+        .product()
+}
+
+impl ExternalForce for FaultTau<'_> {
+    fn tau_body(&self, time_s: f64, eta: &Vector6, nu: &Vector6) -> Vector6 {
+        let mut tau = self.force.tau_body(time_s, eta, nu) + self.thrust_loss_tau;
+        if let Some(user) = self.user {
+            tau += user.tau_body(time_s, eta, nu);
+        }
+        if let Some(d) = &self.drag {
+            tau += d.tau(time_s, eta, nu);
+        }
+        tau
     }
 }
 

@@ -28,6 +28,10 @@ use rov_dynamics::sensors::{SensorConfig, SensorReadings, SensorSuite};
 use rov_dynamics::{DynamicsError, ThrustPct, Vector6};
 
 use crate::error::SimError;
+use crate::fault::{
+    DragExtra, FaultForce, FaultSpec, FaultTau, SensorFaultState, apply_sensor_faults, drag_factor,
+    probe_mass, thrust_loss_tau,
+};
 
 /// Simulator settings.
 #[derive(Debug, Clone)]
@@ -139,6 +143,9 @@ pub struct Simulator {
     external: Option<Box<dyn ExternalForce>>,
     truth: TruthState,
     readings: SensorReadings,
+    /// Injected faults (issue 23) with the dive's start point.
+    faults: FaultForce,
+    sensor_faults: SensorFaultState,
 }
 
 impl Simulator {
@@ -177,6 +184,11 @@ impl Simulator {
             current,
             sensors,
             external: None,
+            faults: FaultForce {
+                faults: Vec::new(),
+                start_ne_m: [state.eta[0], state.eta[1]],
+            },
+            sensor_faults: SensorFaultState::default(),
             truth: TruthState {
                 time_s: 0.0,
                 state,
@@ -243,6 +255,45 @@ impl Simulator {
         self.refresh_truth();
     }
 
+    /// Replaces the injected faults (each applies from its own start time, on this
+    /// simulator's virtual time). A snag pulls towards the position at t = 0.
+    pub fn set_faults(&mut self, faults: Vec<FaultSpec>) {
+        self.faults.faults = faults;
+        self.refresh_truth();
+    }
+
+    /// Adds one fault (e.g. injected live from the station's Settings).
+    pub fn add_fault(&mut self, fault: FaultSpec) {
+        self.faults.faults.push(fault);
+        self.refresh_truth();
+    }
+
+    /// The injected faults.
+    pub fn faults(&self) -> &[FaultSpec] {
+        &self.faults.faults
+    }
+
+    /// The fault force τ_ext at `t_s` for the state and command now, if any fault is set.
+    fn fault_tau(&self, t_s: f64, ramp: CurrentRamp) -> Option<FaultTau<'_>> {
+        if self.faults.faults.is_empty() {
+            return None;
+        }
+        let model = self.model.as_ref();
+        let state = &self.truth.state;
+        let k = drag_factor(&self.faults.faults, t_s);
+        Some(FaultTau {
+            user: self.external.as_deref(),
+            force: &self.faults,
+            thrust_loss_tau: thrust_loss_tau(&self.faults.faults, t_s, model, &self.command, state),
+            drag: (k != 1.0).then(|| DragExtra {
+                extra_factor: k - 1.0,
+                mass: probe_mass(model, state),
+                model,
+                current: ramp,
+            }),
+        })
+    }
+
     /// The true state now.
     pub fn truth(&self) -> &TruthState {
         &self.truth
@@ -262,9 +313,13 @@ impl Simulator {
         self.current.step(h);
         let v1 = self.current.velocity_ned();
         self.current_ramp = CurrentRamp::between(t0, h, v0, v1);
+        let fault_tau = self.fault_tau(t0, self.current_ramp);
         let env = Environment {
             current: self.current_ramp,
-            external: self.external.as_deref(),
+            external: match &fault_tau {
+                Some(f) => Some(f as &dyn ExternalForce),
+                None => self.external.as_deref(),
+            },
         };
         let model = self.model.as_ref();
         let cmd = self.command;
@@ -313,16 +368,23 @@ impl Simulator {
             start_ned_mps: self.current.velocity_ned(),
             rate_ned_mps2: self.current_ramp.rate_ned_mps2,
         };
+        let fault_tau = self.fault_tau(t, ramp);
         let env = Environment {
             current: ramp,
-            external: self.external.as_deref(),
+            external: match &fault_tau {
+                Some(f) => Some(f as &dyn ExternalForce),
+                None => self.external.as_deref(),
+            },
         };
         let s = self.truth.state;
         let d = self.model.derivative(t, &s, &self.command, &env);
         let forces = self.model.thruster_forces(&self.command, &s);
+        let lost = fault_tau
+            .as_ref()
+            .map_or_else(Vector6::zeros, |f| f.thrust_loss_tau);
         self.truth.nu_dot = d.nu;
         self.truth.current_ned_mps = ramp.start_ned_mps;
-        self.truth.tau_thrusters = self.model.generalized_force(&forces, &s);
+        self.truth.tau_thrusters = self.model.generalized_force(&forces, &s) + lost;
     }
 
     /// Samples the sensors once for the current step (the only place noise is drawn).
@@ -331,5 +393,15 @@ impl Simulator {
         self.readings = self
             .sensors
             .measure(self.truth.time_s, &s.eta, &s.nu, &self.truth.nu_dot);
+        if !self.faults.faults.is_empty() {
+            let c = self.sensors.config();
+            let mbar_per_m = c.water_density_kgpm3 * c.gravity_mps2 * 0.01;
+            apply_sensor_faults(
+                &self.faults.faults,
+                &mut self.sensor_faults,
+                &mut self.readings,
+                mbar_per_m,
+            );
+        }
     }
 }
