@@ -26,6 +26,10 @@ use rov_dynamics::sensors::SensorReadings;
 use rov_dynamics::{Matrix6, ThrustPct, ThrusterForces, Vector6};
 use rov_types::angle::{wrap_2pi, wrap_deg_360};
 
+/// Where a snag's pull acts, body axes from CO, m: 0.2 m behind CO, where the tether
+/// leaves the vehicle (the same point as the lab's tether effect).
+pub const SNAG_ATTACH_BODY_M: [f64; 3] = [-0.2, 0.0, 0.0];
+
 /// One of the Pro 4's three thrusters.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[repr(usize)]
@@ -303,8 +307,10 @@ impl fmt::Display for FaultSpec {
 }
 
 /// The force faults (`buoyancy`, `snag`) as an external force on the truth model, each
-/// from its start time. Both act at the origin CO of the body frame (a choice: where a
-/// snagged line or the added weight attaches is unknown, so no moment is modelled).
+/// from its start time. Added weight acts at the origin CO (no moment: where it sits is
+/// unknown). A snag pulls on the tether, which leaves the Pro 4 at its rear: it acts at
+/// [`SNAG_ATTACH_BODY_M`], the point the lab's tether effect uses
+/// (`rov_lab::model::TETHER_ATTACH_X_M`), so a pull across the vehicle also turns it.
 #[derive(Debug, Clone, PartialEq)]
 pub struct FaultForce {
     /// The faults (only `buoyancy` and `snag` act here; the others are ignored).
@@ -314,33 +320,44 @@ pub struct FaultForce {
 }
 
 impl FaultForce {
-    /// The NED force of the active force faults at `t_s` with the vehicle at `eta`, N.
-    pub fn force_ned_n(&self, t_s: f64, eta: &Vector6) -> Vector3<f64> {
-        let mut f = Vector3::zeros();
+    /// The NED forces of the active force faults at `t_s` with the vehicle at `eta`, N:
+    /// (added weight at CO, snag pull at [`SNAG_ATTACH_BODY_M`]).
+    pub fn forces_ned_n(&self, t_s: f64, eta: &Vector6) -> (Vector3<f64>, Vector3<f64>) {
+        let mut weight = Vector3::zeros();
+        let mut snag = Vector3::zeros();
         for fault in self.faults.iter().filter(|f| f.active_at(t_s)) {
             match fault.kind {
-                FaultKind::Buoyancy { heavier_n } => f.z += heavier_n,
+                FaultKind::Buoyancy { heavier_n } => weight.z += heavier_n,
                 FaultKind::Snag { force_n } => {
                     let dn = self.start_ne_m[0] - eta[0];
                     let de = self.start_ne_m[1] - eta[1];
                     let dist_m = dn.hypot(de);
                     if dist_m > 1e-6 {
-                        f.x += force_n * dn / dist_m;
-                        f.y += force_n * de / dist_m;
+                        snag.x += force_n * dn / dist_m;
+                        snag.y += force_n * de / dist_m;
                     }
                 }
                 _ => {}
             }
         }
-        f
+        (weight, snag)
+    }
+
+    /// The total NED force of the active force faults, N.
+    pub fn force_ned_n(&self, t_s: f64, eta: &Vector6) -> Vector3<f64> {
+        let (w, s) = self.forces_ned_n(t_s, eta);
+        w + s
     }
 }
 
 impl ExternalForce for FaultForce {
     fn tau_body(&self, time_s: f64, eta: &Vector6, _nu: &Vector6) -> Vector6 {
-        let f_ned = self.force_ned_n(time_s, eta);
-        let f_body = Attitude::from_eta(eta).ned_from_body().transpose() * f_ned;
-        Vector6::new(f_body.x, f_body.y, f_body.z, 0.0, 0.0, 0.0)
+        let (weight, snag) = self.forces_ned_n(time_s, eta);
+        let body_from_ned = Attitude::from_eta(eta).ned_from_body().transpose();
+        let f = body_from_ned * (weight + snag);
+        let r = Vector3::from(SNAG_ATTACH_BODY_M);
+        let m = r.cross(&(body_from_ned * snag));
+        Vector6::new(f.x, f.y, f.z, m.x, m.y, m.z)
     }
 }
 
