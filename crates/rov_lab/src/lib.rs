@@ -36,6 +36,7 @@ pub mod stream;
 pub mod terms;
 pub mod vehicle_check;
 pub mod verdict;
+pub mod watch;
 
 pub use catalog::{EffectId, parse_effect_list};
 pub use data::Run;

@@ -1,0 +1,609 @@
+//! The model watch (issue 23): notices when the vehicle stops behaving like its model,
+//! says whether the model was wrong from the start (a **mismatch**) or the vehicle
+//! **changed** during the dive, and ranks the likely causes with their sizes.
+//!
+//! One implementation for the station (its own thread, fed the rows the session
+//! export would write) and `topside lab watch` (the rows of a session or a measurement
+//! CSV): [`Watch::push`] takes [`MeasurementRow`]s in time order and returns the alerts
+//! they complete. Pure and clock-free: time is the rows' `time_s`.
+//!
+//! # Method
+//! 1. **Residuals.** Every `hop_s` the last `history_s` of rows go through the lab's
+//!    simulator, re-initialised `window_s` before the end from the readings (the lab's
+//!    k-step view): the model's short-window prediction for the commands actually sent.
+//!    Per channel (depth, heading, pitch, roll) the residual y − ŷ is averaged over three
+//!    sub-windows ([`features`]). Only what the vehicle measures is used: depth, the
+//!    attitude and the body rates; other columns (a simulator's truth) are ignored.
+//! 2. **Noise floor, learned during the dive.** The first `baseline_s` of hops fit, per
+//!    channel, an offset μ, a floor s₀ and a relative model error κ (σ² = s₀² + κ²a², a
+//!    the motion the model predicts over the sub-window; [`noise`]).
+//! 3. **Mismatch.** A model that is wrong from the start shows in that baseline: a
+//!    relative error κ above `mismatch_kappa` or an offset |μ| above `mismatch_level`
+//!    floors gives one `mismatch` alert (suggest the lab), with the causes fitted to the
+//!    baseline; the noise floor then includes that error, so it raises no change alert.
+//! 4. **Change.** Normalised residuals z = (f − μ)/σ feed a two-sided CUSUM per channel
+//!    (reference `drift`, decision `threshold` in noise floors); its excursion start is
+//!    the onset. A reading that repeats one value exactly for `freeze_s` where it was
+//!    noisy in the baseline is a change too (a stuck sensor).
+//! 5. **Causes.** `evidence_s` after the onset, every cause of [`causes`] is fitted alone
+//!    to the residuals after the onset (the lab model changed along that cause's
+//!    parameters, through the lab's simulator) and ranked by the share it explains.
+//! 6. After an alert the watch learns the new normal for `relearn_s` and watches again.
+
+// Channel × sub-window arrays read clearer with index loops.
+#![allow(clippy::needless_range_loop)]
+
+mod causes;
+mod features;
+mod noise;
+
+use std::collections::VecDeque;
+
+use rov_dynamics::models::Channel;
+use rov_types::measurement::MeasurementRow;
+use serde::Serialize;
+
+use crate::data::ch_name;
+use crate::model::LabModel;
+
+pub use causes::{Cause, CauseScore};
+use causes::{FitInput, rank};
+use features::Hop;
+use noise::ChannelNoise;
+
+/// The channels watched, in this order everywhere in the module.
+pub const CHANNELS: [Channel; 4] = [
+    Channel::Depth,
+    Channel::Heading,
+    Channel::Pitch,
+    Channel::Roll,
+];
+
+/// Sub-windows per window.
+pub(crate) const SUB: usize = 3;
+
+/// Settings of the watch (defaults documented per field).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct WatchConfig {
+    /// Short-window prediction length, s (3).
+    pub window_s: f64,
+    /// History simulated before each window (the model's own unmeasured velocities), s
+    /// (12, including the window).
+    pub history_s: f64,
+    /// Time between evaluations, s (1).
+    pub hop_s: f64,
+    /// Baseline learned at the start and after each alert, s (60).
+    pub baseline_s: f64,
+    /// CUSUM reference, noise floors per hop (1.5).
+    pub drift: f64,
+    /// CUSUM decision level, noise floors (14).
+    pub threshold: f64,
+    /// Time after the onset before the causes are ranked, s (3).
+    pub evidence_s: f64,
+    /// Relative model error above which the baseline says "mismatch" (0.35).
+    pub mismatch_kappa: f64,
+    /// Baseline offset above which it says "mismatch", noise floors (6).
+    pub mismatch_level: f64,
+    /// A reading frozen this long where it was noisy is a change, s (2).
+    pub freeze_s: f64,
+    /// Learning after an alert, s (60).
+    pub relearn_s: f64,
+}
+
+impl Default for WatchConfig {
+    fn default() -> Self {
+        Self {
+            window_s: 3.0,
+            history_s: 12.0,
+            hop_s: 1.0,
+            baseline_s: 60.0,
+            drift: 1.5,
+            threshold: 14.0,
+            evidence_s: 3.0,
+            mismatch_kappa: 0.35,
+            mismatch_level: 6.0,
+            freeze_s: 2.0,
+            relearn_s: 60.0,
+        }
+    }
+}
+
+/// Mismatch (from the start) or change (during the dive).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum AlertKind {
+    /// The model was wrong from the start: suggest the lab.
+    Mismatch,
+    /// The vehicle changed during the dive.
+    Change,
+}
+
+/// One alert (the pinned JSON shape; `detected_s` is when it was raised).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Alert {
+    /// When it began, s from the log's start.
+    pub t_s: f64,
+    /// Mismatch or change.
+    pub kind: AlertKind,
+    /// The channel where it showed (`depth`, `heading`, `pitch`, `roll`).
+    pub channel: String,
+    /// Its size in noise floors.
+    pub size_noise: f64,
+    /// Likely causes, best first.
+    pub causes: Vec<CauseScore>,
+    /// When the watch raised it, s from the log's start.
+    pub detected_s: f64,
+}
+
+impl Alert {
+    /// The alert in words: "PORT THRUST −40 %" for a change, "MODEL MISMATCH (…)" for a
+    /// mismatch.
+    pub fn words(&self) -> String {
+        let best = self.causes.first().map(|c| c.words.clone());
+        match self.kind {
+            AlertKind::Change => {
+                best.unwrap_or_else(|| format!("{} CHANGED", self.channel.to_uppercase()))
+            }
+            AlertKind::Mismatch => format!(
+                "MODEL MISMATCH ON {}{}: TRY THE LAB",
+                self.channel.to_uppercase(),
+                best.map(|b| format!(" (LIKE {b})")).unwrap_or_default()
+            ),
+        }
+    }
+}
+
+/// Counters of the watch.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
+pub struct WatchStats {
+    /// Rows taken.
+    pub rows: u64,
+    /// Rows refused (time not increasing, not finite).
+    pub rows_refused: u64,
+    /// Evaluations done.
+    pub hops: u64,
+    /// Evaluations that could not run (too few rows, a gap, a failed simulation).
+    pub hops_skipped: u64,
+}
+
+#[derive(Debug, Clone, Copy, Default)]
+struct Cusum {
+    up: f64,
+    down: f64,
+    up_start: Option<f64>,
+    down_start: Option<f64>,
+}
+
+#[derive(Debug, Clone)]
+struct Pending {
+    channel: usize,
+    onset_s: f64,
+    detected_s: f64,
+    frozen: bool,
+}
+
+/// The monitor; see the module docs.
+#[derive(Debug, Clone)]
+pub struct Watch {
+    cfg: WatchConfig,
+    model: LabModel,
+    present: [bool; 8],
+    origin_s: Option<f64>,
+    rows: VecDeque<MeasurementRow>,
+    next_hop_s: Option<f64>,
+    recent: VecDeque<Hop>,
+    learn: Vec<Hop>,
+    learn_until_s: Option<f64>,
+    first_baseline: bool,
+    noise: [Option<ChannelNoise>; 4],
+    initial_noise: [Option<ChannelNoise>; 4],
+    cusum: [Cusum; 4],
+    frozen_hops: [usize; 4],
+    pending: Option<Pending>,
+    alerts: Vec<Alert>,
+    stats: WatchStats,
+    last_t_s: Option<f64>,
+}
+
+/// A gap in the rows longer than this restarts the watch's history, s.
+const GAP_S: f64 = 2.0;
+
+impl Watch {
+    /// A watch of `model` with settings `cfg`. `present`: which optional columns
+    /// ([`rov_types::measurement::OPTIONAL_COLUMNS`]) the rows carry; only the body
+    /// rates (the first three) are used.
+    pub fn new(model: LabModel, cfg: WatchConfig, present: [bool; 8]) -> Self {
+        let mut p = [false; 8];
+        p[..3].copy_from_slice(&present[..3]);
+        Self {
+            cfg,
+            model,
+            present: p,
+            origin_s: None,
+            rows: VecDeque::new(),
+            next_hop_s: None,
+            recent: VecDeque::new(),
+            learn: Vec::new(),
+            learn_until_s: None,
+            first_baseline: true,
+            noise: [None; 4],
+            initial_noise: [None; 4],
+            cusum: [Cusum::default(); 4],
+            frozen_hops: [0; 4],
+            pending: None,
+            alerts: Vec::new(),
+            stats: WatchStats::default(),
+            last_t_s: None,
+        }
+    }
+
+    /// Sets the time that alerts count from (default: the first row's time).
+    pub fn set_origin_s(&mut self, origin_s: f64) {
+        self.origin_s = Some(origin_s);
+    }
+
+    /// The settings.
+    pub fn config(&self) -> &WatchConfig {
+        &self.cfg
+    }
+
+    /// Every alert so far.
+    pub fn alerts(&self) -> &[Alert] {
+        &self.alerts
+    }
+
+    /// Counters.
+    pub fn stats(&self) -> WatchStats {
+        self.stats
+    }
+
+    /// Whether the watch is learning its noise floor (at the start, after an alert).
+    pub fn learning(&self) -> bool {
+        self.learn_until_s.is_some() || self.noise.iter().all(Option::is_none)
+    }
+
+    fn keep_s(&self) -> f64 {
+        self.cfg.history_s + self.cfg.baseline_s.max(self.cfg.evidence_s + 30.0) + 5.0
+    }
+
+    /// Takes one row (time increasing); returns the alerts it completes.
+    pub fn push(&mut self, row: &MeasurementRow) -> Vec<Alert> {
+        let t = row.time_s;
+        if !t.is_finite() || self.last_t_s.is_some_and(|p| t <= p) {
+            self.stats.rows_refused += 1;
+            return Vec::new();
+        }
+        self.stats.rows += 1;
+        if self.origin_s.is_none() {
+            self.origin_s = Some(t);
+        }
+        if self.last_t_s.is_some_and(|p| t - p > GAP_S) {
+            // A gap: the history before it cannot drive the prediction after it.
+            self.rows.clear();
+            self.next_hop_s = None;
+            self.cusum = [Cusum::default(); 4];
+            self.frozen_hops = [0; 4];
+            self.pending = None;
+        }
+        self.last_t_s = Some(t);
+        let mut r = *row;
+        for o in r.optional.iter_mut().skip(3) {
+            *o = None;
+        }
+        self.rows.push_back(r);
+        let keep = self.keep_s();
+        while self.rows.front().is_some_and(|f| f.time_s < t - keep) {
+            self.rows.pop_front();
+        }
+        let next = *self.next_hop_s.get_or_insert(t + self.cfg.history_s);
+        let mut out = Vec::new();
+        if t >= next {
+            let mut n = next + self.cfg.hop_s;
+            if n <= t {
+                n = t + self.cfg.hop_s;
+            }
+            self.next_hop_s = Some(n);
+            if let Some(a) = self.hop(t) {
+                out.extend(a);
+            }
+        }
+        out
+    }
+
+    /// Ends the log: an alert still waiting for evidence is ranked with what there is.
+    pub fn finish(&mut self) -> Vec<Alert> {
+        match (self.pending.take(), self.last_t_s) {
+            (Some(p), Some(t)) => self.raise(p, t).into_iter().collect(),
+            _ => Vec::new(),
+        }
+    }
+
+    fn rel(&self, t: f64) -> f64 {
+        let t = t - self.origin_s.unwrap_or(0.0);
+        (t * 1000.0).round() / 1000.0
+    }
+
+    /// One evaluation at the newest row's time `t`.
+    fn hop(&mut self, t: f64) -> Option<Vec<Alert>> {
+        let rows: Vec<MeasurementRow> = self
+            .rows
+            .iter()
+            .filter(|r| r.time_s >= t - self.cfg.history_s - 1e-9)
+            .copied()
+            .collect();
+        let Some(h) = features::chunk(&rows, self.present, t, &self.cfg)
+            .and_then(|c| features::hop(&self.model, &c, &rows, &self.cfg))
+        else {
+            self.stats.hops_skipped += 1;
+            return None;
+        };
+        self.stats.hops += 1;
+        self.recent.push_back(h.clone());
+        let keep_hops = (self.keep_s() / self.cfg.hop_s).ceil() as usize;
+        while self.recent.len() > keep_hops {
+            self.recent.pop_front();
+        }
+        for i in 0..4 {
+            self.frozen_hops[i] = if h.frozen[i] {
+                self.frozen_hops[i] + 1
+            } else {
+                0
+            };
+        }
+        let mut out = Vec::new();
+        // Learning (the start, or the new normal after an alert).
+        if self.noise.iter().all(Option::is_none) && self.learn_until_s.is_none() {
+            self.learn_until_s = Some(t + self.cfg.baseline_s);
+        }
+        if let Some(until) = self.learn_until_s {
+            self.learn.push(h);
+            if t >= until {
+                self.learn_until_s = None;
+                if let Some(a) = self.end_baseline(t) {
+                    out.push(a);
+                }
+            }
+            return Some(out);
+        }
+        if let Some(p) = self.pending.clone() {
+            if t - p.onset_s >= self.cfg.evidence_s || t - p.detected_s >= self.cfg.evidence_s {
+                self.pending = None;
+                out.extend(self.raise(p, t));
+            }
+            return Some(out);
+        }
+        // Change detection.
+        let freeze_hops = (self.cfg.freeze_s / self.cfg.hop_s).ceil().max(1.0) as usize;
+        for i in 0..4 {
+            let Some(n) = self.noise[i] else { continue };
+            if self.frozen_hops[i] >= freeze_hops && n.frozen_share < 0.2 {
+                let onset = self.freeze_start(i, t);
+                self.detect(i, onset, t, true);
+                break;
+            }
+            let Some(z) = n.z(&h.f[i], &h.a[i]) else {
+                continue;
+            };
+            let c = &mut self.cusum[i];
+            c.up = (c.up + z - self.cfg.drift).max(0.0);
+            c.down = (c.down - z - self.cfg.drift).max(0.0);
+            if c.up == 0.0 {
+                c.up_start = None;
+            } else if c.up_start.is_none() {
+                c.up_start = Some(t);
+            }
+            if c.down == 0.0 {
+                c.down_start = None;
+            } else if c.down_start.is_none() {
+                c.down_start = Some(t);
+            }
+            let fired = if c.up > self.cfg.threshold {
+                c.up_start
+            } else if c.down > self.cfg.threshold {
+                c.down_start
+            } else {
+                None
+            };
+            if let Some(start) = fired {
+                // The excursion's first hop saw the change in its last sub-window.
+                let onset = start - self.cfg.window_s / SUB as f64;
+                self.detect(i, onset, t, false);
+                break;
+            }
+        }
+        if let Some(p) = self.pending.clone()
+            && t - p.onset_s >= self.cfg.evidence_s
+        {
+            self.pending = None;
+            out.extend(self.raise(p, t));
+        }
+        Some(out)
+    }
+
+    fn detect(&mut self, channel: usize, onset_s: f64, t: f64, frozen: bool) {
+        self.pending = Some(Pending {
+            channel,
+            onset_s,
+            detected_s: t,
+            frozen,
+        });
+    }
+
+    /// When channel `i`'s reading last changed value before `t`.
+    fn freeze_start(&self, i: usize, t: f64) -> f64 {
+        let mut start = t;
+        let mut last: Option<f64> = None;
+        for r in self.rows.iter().rev() {
+            let v = features::reading(r)[i];
+            if !v.is_finite() {
+                continue;
+            }
+            match last {
+                None => last = Some(v),
+                Some(l) if l.to_bits() != v.to_bits() => break,
+                Some(_) => {}
+            }
+            start = r.time_s;
+        }
+        start
+    }
+
+    /// Fits the noise floors at the end of a baseline; the first one may say mismatch.
+    fn end_baseline(&mut self, t: f64) -> Option<Alert> {
+        let hops: Vec<&Hop> = self.learn.iter().collect();
+        for i in 0..4 {
+            let floor = noise_floor(&hops, i);
+            let fitted = ChannelNoise::fit(&hops, i, floor);
+            self.noise[i] = match (fitted, self.initial_noise[i]) {
+                // After an alert, never quieter than the dive's first baseline.
+                (Some(f), Some(init)) if !self.first_baseline => Some(f.at_least(&init)),
+                (f, _) => f,
+            };
+        }
+        self.cusum = [Cusum::default(); 4];
+        let first = self.first_baseline;
+        self.first_baseline = false;
+        let learned = std::mem::take(&mut self.learn);
+        if !first {
+            return None;
+        }
+        self.initial_noise = self.noise;
+        // Mismatch: a large relative error or offset in the baseline.
+        let mut worst: Option<(usize, f64)> = None;
+        for (i, n) in self.noise.iter().enumerate() {
+            let Some(n) = n else { continue };
+            let level = n.mu.iter().map(|m| m.abs()).fold(0.0, f64::max) / n.s0.max(1e-12);
+            let badness = (n.kappa / self.cfg.mismatch_kappa).max(level / self.cfg.mismatch_level);
+            if badness > 1.0 && worst.is_none_or(|w| badness > w.1) {
+                worst = Some((i, badness));
+            }
+        }
+        let (i, _) = worst?;
+        let n = self.noise[i]?;
+        // Size in floors: the baseline residual's RMS over s₀.
+        let ms: Vec<f64> = learned
+            .iter()
+            .flat_map(|h| h.f[i].iter().copied())
+            .filter(|x| x.is_finite())
+            .map(|x| x * x)
+            .collect();
+        let rms = (ms.iter().sum::<f64>() / ms.len().max(1) as f64).sqrt();
+        // Causes fitted to the raw baseline residuals (every third hop), without offsets
+        // and with the floor at rest only (the model error is what is being explained).
+        let sample: Vec<Hop> = learned.iter().step_by(3).cloned().collect();
+        let rest_noise: [Option<ChannelNoise>; 4] =
+            std::array::from_fn(|k| self.noise[k].map(|c| ChannelNoise { kappa: 0.0, ..c }));
+        let rows: Vec<MeasurementRow> = self.rows.iter().copied().collect();
+        let onset = learned.first().map_or(t, |h| h.t_s - self.cfg.window_s);
+        let causes = rank(&FitInput {
+            model: &self.model,
+            rows: &rows,
+            present: self.present,
+            cfg: &self.cfg,
+            hops: &sample,
+            noise: &rest_noise,
+            subtract_mu: false,
+            onset_s: onset,
+            frozen: None,
+        });
+        let alert = Alert {
+            t_s: self.rel(onset.max(self.origin_s.unwrap_or(onset))),
+            kind: AlertKind::Mismatch,
+            channel: ch_name(CHANNELS[i]).to_string(),
+            size_noise: round2(rms / n.s0.max(1e-12)),
+            causes,
+            detected_s: self.rel(t),
+        };
+        self.alerts.push(alert.clone());
+        Some(alert)
+    }
+
+    /// Ranks the causes of a detected change and raises its alert; then learns anew.
+    fn raise(&mut self, p: Pending, t: f64) -> Option<Alert> {
+        let post: Vec<Hop> = self
+            .recent
+            .iter()
+            .filter(|h| h.t_s > p.onset_s && h.t_s <= t + 1e-9)
+            .cloned()
+            .collect();
+        let rows: Vec<MeasurementRow> = self.rows.iter().copied().collect();
+        let causes = rank(&FitInput {
+            model: &self.model,
+            rows: &rows,
+            present: self.present,
+            cfg: &self.cfg,
+            hops: &post,
+            noise: &self.noise,
+            subtract_mu: true,
+            onset_s: p.onset_s,
+            frozen: p.frozen.then_some(p.channel),
+        });
+        let size = self.noise[p.channel].map_or(0.0, |n| {
+            post.iter()
+                .filter_map(|h| n.z(&h.f[p.channel], &h.a[p.channel]))
+                .map(|z| z.abs() / (SUB as f64).sqrt())
+                .fold(0.0, f64::max)
+        });
+        // A sensor cause ranked first dates the change itself.
+        let onset = causes.first().and_then(|c| c.from_s).unwrap_or(p.onset_s);
+        let alert = Alert {
+            t_s: self.rel(onset),
+            kind: AlertKind::Change,
+            channel: ch_name(CHANNELS[p.channel]).to_string(),
+            size_noise: round2(size),
+            causes,
+            detected_s: self.rel(t),
+        };
+        self.alerts.push(alert.clone());
+        // The new normal.
+        self.learn.clear();
+        self.learn_until_s = Some(t + self.cfg.relearn_s);
+        self.cusum = [Cusum::default(); 4];
+        self.frozen_hops = [0; 4];
+        let _ = p.detected_s;
+        Some(alert)
+    }
+}
+
+/// The smallest floor s₀ of channel `i`: half the median of the lab's white-noise floor
+/// (per sample) over the hops, never below half the lab's own minimum.
+fn noise_floor(hops: &[&Hop], i: usize) -> f64 {
+    let mut v: Vec<f64> = hops
+        .iter()
+        .filter_map(|h| h.noise.get(i).copied())
+        .filter(|x| x.is_finite())
+        .collect();
+    let lab_min = match CHANNELS.get(i) {
+        Some(Channel::Depth) => 0.002,
+        _ => 0.03,
+    };
+    noise::median(&mut v).unwrap_or(lab_min).max(lab_min) * 0.5
+}
+
+fn round2(x: f64) -> f64 {
+    if x.is_finite() {
+        (x * 100.0).round() / 100.0
+    } else {
+        0.0
+    }
+}
+
+/// Runs a watch over rows (a whole log) and returns every alert.
+pub fn watch_rows<'a>(
+    model: LabModel,
+    cfg: WatchConfig,
+    present: [bool; 8],
+    rows: impl IntoIterator<Item = &'a MeasurementRow>,
+) -> (Vec<Alert>, WatchStats) {
+    let mut w = Watch::new(model, cfg, present);
+    for r in rows {
+        w.push(r);
+    }
+    w.finish();
+    (w.alerts().to_vec(), w.stats())
+}
+
+/// The JSON document of `lab watch` and `record --json`'s `watch`: `{"alerts": [...]}`.
+pub fn alerts_json(alerts: &[Alert]) -> serde_json::Value {
+    serde_json::json!({ "alerts": alerts })
+}
