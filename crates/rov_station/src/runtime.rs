@@ -125,6 +125,10 @@ pub struct RuntimeConfig {
     /// Faults the simulated vehicle injects on its link (none by default: a clean
     /// link; for training and tests).
     pub sim_faults: rov_vehicle::FaultConfig,
+    /// Faults the simulated vehicle itself suffers (issue 23: thrust loss, buoyancy, drag,
+    /// snag, depth sensor, compass), each from its own time on the simulator's clock
+    /// (`--fault SPEC`); none by default.
+    pub vehicle_faults: Vec<rov_sim::FaultSpec>,
     /// Keyboard sticks older than this count as released, µs.
     pub keyboard_timeout_us: u64,
     /// Recording waits for the writer instead of dropping messages when its queue is
@@ -159,6 +163,7 @@ impl Default for RuntimeConfig {
             gamepad: true,
             sim_seed: 1,
             sim_faults: rov_vehicle::FaultConfig::none(),
+            vehicle_faults: Vec::new(),
             keyboard_timeout_us: 300_000,
             record_blocking: false,
             reconnect: ReconnectSettings::default(),

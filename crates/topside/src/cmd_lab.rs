@@ -89,6 +89,10 @@ enum LabCommand {
     /// Per-session and leave-one-session-out held-out fit (free run and multiple
     /// shooting) per channel, before and after calibration.
     Cv(crate::cmd_lab_cv::CvArgs),
+    /// Run the station's model watch over a session or log: alerts when the vehicle
+    /// stops behaving like the model (a mismatch from the start, or a change during the
+    /// dive), with the likely causes ranked.
+    Watch(crate::cmd_lab_watch::WatchArgs),
 }
 
 /// `topside lab compare`.
@@ -735,5 +739,6 @@ pub fn run(args: LabArgs) -> anyhow::Result<ExitCode> {
         LabCommand::Effects(a) => run_effects(a),
         LabCommand::Models(a) => run_models(a),
         LabCommand::Cv(a) => crate::cmd_lab_cv::run(a),
+        LabCommand::Watch(a) => crate::cmd_lab_watch::run(a),
     }
 }

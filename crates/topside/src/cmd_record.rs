@@ -115,6 +115,11 @@ pub struct RecordArgs {
     /// effects included, behind the same wire protocol and sensors. Default: model3.
     #[arg(long, value_name = "FILE.toml")]
     vehicle: Option<PathBuf>,
+    /// Inject a fault into the simulated vehicle (repeatable): KIND[:TARGET][:SIZE]@T_S,
+    /// e.g. `thrust-loss:port:0.4@300` (see `topside --help`); T_S counts from the start
+    /// of the recording.
+    #[arg(long = "fault", value_name = "SPEC", value_parser = crate::parse_fault)]
+    faults: Vec<rov_sim::FaultSpec>,
 }
 
 /// Stick positions in a script.
@@ -381,6 +386,7 @@ fn runtime_config(
     };
     crate::cmd_station::apply_models(&mut cfg, args.model.as_ref(), args.vehicle.as_deref())?;
     cfg.video.source.clone_from(&args.video);
+    cfg.vehicle_faults.clone_from(&args.faults);
     Ok((cfg, live))
 }
 
@@ -443,6 +449,11 @@ pub fn run(args: RecordArgs, config: Option<&std::path::Path>) -> anyhow::Result
         bail!("--video test runs on wall time; with --fast (virtual time) use --video sim or none");
     }
     let (cfg, live) = runtime_config(&args, config)?;
+    // The watch compares the dive with the autopilot's own model.
+    let watch_model = args
+        .model
+        .clone()
+        .unwrap_or(rov_types::ModelId::Base(cfg.control.feedforward_model));
     let wall = Instant::now();
     let (refused_arm, control, video) = if args.fast {
         record_fast(cfg, &args, script, live.as_ref())?
@@ -464,7 +475,39 @@ pub fn run(args: RecordArgs, config: Option<&std::path::Path>) -> anyhow::Result
         })
     });
     drop(live);
-    summarize(&args, wall_s, refused_arm, control, video, live_json)
+    let watch = watch_json(&args.out, &watch_model);
+    summarize(&args, wall_s, refused_arm, control, video, live_json, watch)
+}
+
+/// The model watch over the recorded dive (`lab watch` on the session: the rows the
+/// station's own watch is fed), as `{"model", "alerts": [...]}`; an error is a warning
+/// and `null`.
+fn watch_json(out: &std::path::Path, model: &rov_types::ModelId) -> serde_json::Value {
+    let run = || -> anyhow::Result<serde_json::Value> {
+        let text = match model {
+            rov_types::ModelId::Base(_) => None,
+            rov_types::ModelId::File(p) => Some(
+                std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?,
+            ),
+        };
+        let lab_model = rov_lab::load_model(model, text.as_deref())?;
+        let (alerts, _) = crate::cmd_lab_watch::watch_file(out, lab_model, None)?;
+        let mut j = rov_lab::watch::alerts_json(&alerts);
+        if let Some(o) = j.as_object_mut() {
+            o.insert("model".into(), serde_json::Value::from(model.to_string()));
+        }
+        Ok(j)
+    };
+    match run() {
+        Ok(j) => j,
+        Err(e) => {
+            eprintln!(
+                "warning: the model watch could not run over {}: {e:#}",
+                out.display()
+            );
+            serde_json::Value::Null
+        }
+    }
 }
 
 type Outcome = (bool, serde_json::Value, serde_json::Value);
@@ -560,6 +603,7 @@ fn summarize(
     control: serde_json::Value,
     video: serde_json::Value,
     foxglove: serde_json::Value,
+    watch: serde_json::Value,
 ) -> anyhow::Result<ExitCode> {
     let session = rov_session::open(&args.out)
         .with_context(|| format!("reading back {}", args.out.display()))?;
@@ -587,6 +631,7 @@ fn summarize(
             "control": control,
             "video": video,
             "foxglove": foxglove,
+            "watch": watch,
         });
         println!("{j}");
     } else {
@@ -605,6 +650,17 @@ fn summarize(
         );
         for (t, n) in &topics {
             println!("  {t:<22} {n}");
+        }
+        if let Some(alerts) = watch.get("alerts").and_then(|a| a.as_array()) {
+            println!(
+                "model watch: {} alert(s){}",
+                alerts.len(),
+                if alerts.is_empty() {
+                    ""
+                } else {
+                    " (topside lab watch FILE for the causes)"
+                }
+            );
         }
     }
     Ok(if session.is_complete() {

@@ -121,6 +121,8 @@ pub struct StationSources<'a> {
     pub model: Option<rov_types::ModelId>,
     /// The simulated vehicle's model file.
     pub vehicle: Option<PathBuf>,
+    /// Faults the simulated vehicle suffers (`--fault`).
+    pub faults: Vec<rov_sim::FaultSpec>,
 }
 
 /// `--model` and `--vehicle` on top of the settings: the autopilot's model (a shipped
@@ -185,6 +187,13 @@ pub fn run_station(
     if !explicit_port && !station.serial_port.trim().is_empty() {
         cfg.connection = Connection::Serial(station.serial_port.trim().to_string());
     }
+    if !settings.faults.is_empty() && cfg.connection != Connection::Sim {
+        anyhow::bail!(
+            "--fault injects faults into the built-in simulated vehicle; this station flies a real vehicle ({:?})",
+            cfg.connection
+        );
+    }
+    cfg.vehicle_faults.clone_from(&settings.faults);
     if let Some(v) = video {
         cfg.video.source = v;
     }

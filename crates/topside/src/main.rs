@@ -11,6 +11,7 @@ mod cmd_hold;
 mod cmd_import;
 mod cmd_lab;
 mod cmd_lab_cv;
+mod cmd_lab_watch;
 mod cmd_proto;
 mod cmd_record;
 mod cmd_replay;
@@ -74,6 +75,12 @@ struct Cli {
     /// included), behind the same wire protocol and sensors. Default: model3 as shipped.
     #[arg(long, value_name = "FILE.toml")]
     vehicle: Option<std::path::PathBuf>,
+    /// Inject a fault into the simulated vehicle (repeatable; training and tests):
+    /// KIND[:TARGET][:SIZE]@T_S, e.g. thrust-loss:port:0.4@300, buoyancy:3@200,
+    /// drag:2.5@100, snag:15@250, depth-sensor:stuck@120, compass:25@90 (T_S: seconds
+    /// of the simulator's clock). The Settings tab injects them live too.
+    #[arg(long = "fault", value_name = "SPEC", value_parser = parse_fault)]
+    faults: Vec<rov_sim::FaultSpec>,
     /// Window size, WIDTHxHEIGHT (default 1280x800).
     #[arg(long, value_name = "WxH", hide = true)]
     window_size: Option<String>,
@@ -104,6 +111,12 @@ enum Command {
     Vehicle(cmd_vehicle::VehicleArgs),
 }
 
+/// A `--fault` argument ([`rov_sim::FaultSpec`]'s grammar; the error says where it is
+/// wrong).
+pub fn parse_fault(s: &str) -> Result<rov_sim::FaultSpec, String> {
+    rov_sim::FaultSpec::parse(s).map_err(|e| e.to_string())
+}
+
 /// A model argument, parsed as every model name is ([`rov_types::ModelId`]).
 pub fn parse_model_id(s: &str) -> Result<rov_types::ModelId, String> {
     s.parse::<rov_types::ModelId>().map_err(|e| e.to_string())
@@ -129,6 +142,7 @@ fn main() -> std::process::ExitCode {
                 config: cli.config.as_deref(),
                 model: cli.model,
                 vehicle: cli.vehicle,
+                faults: cli.faults,
             },
             (!cli.no_record).then_some(cli.recordings),
             cli.screenshot.map(|p| (p, cli.screenshot_after_s)),

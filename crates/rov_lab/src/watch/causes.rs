@@ -54,6 +54,31 @@ pub struct CauseScore {
     /// For a sensor cause: when the reading went wrong (s), if it was fitted.
     #[serde(skip)]
     pub from_s: Option<f64>,
+    /// The cause and its fitted parameters (what the watch adopts after a change).
+    #[serde(skip)]
+    pub fitted: Option<(Cause, Vec<f64>)>,
+}
+
+impl CauseScore {
+    /// A sensor cause measured as a step of the reading at `from_s`.
+    pub(crate) fn set_step(&mut self, size: f64, from_s: f64) {
+        let cause = if self.cause == "depth-sensor" {
+            Cause::DepthSensor
+        } else {
+            Cause::Compass
+        };
+        self.size = round_sig(size);
+        self.words = cause.words(size, &[size]);
+        self.from_s = Some(from_s);
+        self.fitted = Some((cause, vec![size]));
+    }
+
+    /// Whether this is a physical cause (a change of the vehicle, not of a sensor).
+    pub fn is_physical(&self) -> bool {
+        self.fitted
+            .as_ref()
+            .is_some_and(|(c, _)| !matches!(c, Cause::DepthSensor | Cause::Compass))
+    }
 }
 
 /// A cause the watch knows.
@@ -520,6 +545,7 @@ pub(crate) fn rank(input: &FitInput<'_>) -> Vec<CauseScore> {
             score: (score * 1000.0).round() / 1000.0,
             words: cause.words(size, &theta),
             from_s,
+            fitted: Some((cause, theta)),
         });
     }
     out.sort_by(|a, b| {

@@ -17,18 +17,28 @@
 //! 2. **Noise floor, learned during the dive.** The first `baseline_s` of hops fit, per
 //!    channel, an offset μ, a floor s₀ and a relative model error κ (σ² = s₀² + κ²a², a
 //!    the motion the model predicts over the sub-window; [`noise`]).
-//! 3. **Mismatch.** A model that is wrong from the start shows in that baseline: a
-//!    relative error κ above `mismatch_kappa` or an offset |μ| above `mismatch_level`
-//!    floors gives one `mismatch` alert (suggest the lab), with the causes fitted to the
-//!    baseline; the noise floor then includes that error, so it raises no change alert.
+//! 3. **Mismatch.** A model that is wrong from the start shows in that baseline: an
+//!    offset |μ| above `mismatch_level` floors, or a cause that explains at least
+//!    `mismatch_score` of the baseline's residual, gives one `mismatch` alert (suggest
+//!    the lab), with the causes fitted to the baseline; the noise floor then includes
+//!    that error, so it raises no change alert. A large relative error κ alone is not a
+//!    mismatch: even the vehicle's own model errs in fast turns (sensor and thruster lags
+//!    the models leave out), and κ only widens the floor.
 //! 4. **Change.** Normalised residuals z = (f − μ)/σ feed a two-sided CUSUM per channel
 //!    (reference `drift`, decision `threshold` in noise floors); its excursion start is
 //!    the onset. A reading that repeats one value exactly for `freeze_s` where it was
-//!    noisy in the baseline is a change too (a stuck sensor).
+//!    noisy in the baseline is a change too (a stuck sensor), and so is a reading that
+//!    moves as the vehicle cannot: a compass turning without the gyro, a depth jumping
+//!    faster than the vehicle can move ([`steps`]).
 //! 5. **Causes.** `evidence_s` after the onset, every cause of [`causes`] is fitted alone
 //!    to the residuals after the onset (the lab model changed along that cause's
 //!    parameters, through the lab's simulator) and ranked by the share it explains.
-//! 6. After an alert the watch learns the new normal for `relearn_s` and watches again.
+//! 6. After a change the watch adopts it: a physical cause that explains at least half
+//!    of the residual becomes part of the watch's model (so the same change is not
+//!    reported again, and a second change is measured against the changed vehicle); a
+//!    sensor cause takes that channel out of the watch for the rest of the dive (its
+//!    readings are no longer believed); anything else is learned as the new normal for
+//!    `relearn_s`. Then it watches again.
 
 // Channel × sub-window arrays read clearer with index loops.
 #![allow(clippy::needless_range_loop)]
@@ -36,6 +46,7 @@
 mod causes;
 mod features;
 mod noise;
+mod steps;
 
 use std::collections::VecDeque;
 
@@ -78,10 +89,12 @@ pub struct WatchConfig {
     pub drift: f64,
     /// CUSUM decision level, noise floors (14).
     pub threshold: f64,
-    /// Time after the onset before the causes are ranked, s (3).
+    /// Largest |z| one evaluation adds to the CUSUM (4).
+    pub z_clip: f64,
+    /// Time after the onset before the causes are ranked, s (6).
     pub evidence_s: f64,
-    /// Relative model error above which the baseline says "mismatch" (0.35).
-    pub mismatch_kappa: f64,
+    /// Share of the baseline's residual a cause must explain for "mismatch" (0.5).
+    pub mismatch_score: f64,
     /// Baseline offset above which it says "mismatch", noise floors (6).
     pub mismatch_level: f64,
     /// A reading frozen this long where it was noisy is a change, s (2).
@@ -99,8 +112,9 @@ impl Default for WatchConfig {
             baseline_s: 60.0,
             drift: 1.5,
             threshold: 14.0,
-            evidence_s: 3.0,
-            mismatch_kappa: 0.35,
+            z_clip: 4.0,
+            evidence_s: 6.0,
+            mismatch_score: 0.5,
             mismatch_level: 6.0,
             freeze_s: 2.0,
             relearn_s: 60.0,
@@ -153,6 +167,22 @@ impl Alert {
     }
 }
 
+/// One evaluation as the watch saw it (for plots and for tuning): per channel, the
+/// normalised residual z (NaN while learning or absent) and the CUSUM's two sides.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct TraceRow {
+    /// The evaluation's time, s from the log's start.
+    pub t_s: f64,
+    /// Normalised residual per channel ([`CHANNELS`] order).
+    pub z: [f64; 4],
+    /// CUSUM upper side per channel, noise floors.
+    pub up: [f64; 4],
+    /// CUSUM lower side per channel, noise floors.
+    pub down: [f64; 4],
+    /// Whether the watch was learning its noise floor.
+    pub learning: bool,
+}
+
 /// Counters of the watch.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
 pub struct WatchStats {
@@ -180,6 +210,8 @@ struct Pending {
     onset_s: f64,
     detected_s: f64,
     frozen: bool,
+    /// The size of the sensor step that was detected (m or degrees), if that was it.
+    step_size: Option<f64>,
 }
 
 /// The monitor; see the module docs.
@@ -203,6 +235,12 @@ pub struct Watch {
     alerts: Vec<Alert>,
     stats: WatchStats,
     last_t_s: Option<f64>,
+    trace: Option<Vec<TraceRow>>,
+    /// No change is judged before this time (after an adopted change), s.
+    holdoff_until_s: Option<f64>,
+    /// Channels taken out of the watch (a sensor fault), [`CHANNELS`] order.
+    disabled: [bool; 4],
+    steps: steps::Steps,
 }
 
 /// A gap in the rows longer than this restarts the watch's history, s.
@@ -234,7 +272,22 @@ impl Watch {
             alerts: Vec::new(),
             stats: WatchStats::default(),
             last_t_s: None,
+            trace: None,
+            holdoff_until_s: None,
+            disabled: [false; 4],
+            steps: steps::Steps::default(),
         }
+    }
+
+    /// Keeps a [`TraceRow`] per evaluation (off by default; a long dive's trace grows
+    /// with it).
+    pub fn keep_trace(&mut self, on: bool) {
+        self.trace = on.then(Vec::new);
+    }
+
+    /// The evaluations kept since [`Watch::keep_trace`].
+    pub fn trace(&self) -> &[TraceRow] {
+        self.trace.as_deref().unwrap_or(&[])
     }
 
     /// Sets the time that alerts count from (default: the first row's time).
@@ -250,6 +303,12 @@ impl Watch {
     /// Every alert so far.
     pub fn alerts(&self) -> &[Alert] {
         &self.alerts
+    }
+
+    /// The learned noise floor per channel (offsets μ per sub-window, floor s₀, relative
+    /// error κ), `None` before it is learned or where the channel is absent.
+    pub fn noise_floors(&self) -> [Option<([f64; SUB], f64, f64)>; 4] {
+        std::array::from_fn(|i| self.noise[i].map(|n| (n.mu, n.s0, n.kappa)))
     }
 
     /// Counters.
@@ -284,6 +343,7 @@ impl Watch {
             self.cusum = [Cusum::default(); 4];
             self.frozen_hops = [0; 4];
             self.pending = None;
+            self.steps.reset();
         }
         self.last_t_s = Some(t);
         let mut r = *row;
@@ -291,6 +351,16 @@ impl Watch {
             *o = None;
         }
         self.rows.push_back(r);
+        let learning_first = self.first_baseline;
+        if let Some(st) = self.steps.push(&r, learning_first) {
+            let i = if st.channel == 0 { 0 } else { 1 };
+            if self.pending.is_none() && !self.disabled[i] && self.learn_until_s.is_none() {
+                self.detect(i, st.t_s, t, true);
+                if let Some(p) = &mut self.pending {
+                    p.step_size = Some(st.size);
+                }
+            }
+        }
         let keep = self.keep_s();
         while self.rows.front().is_some_and(|f| f.time_s < t - keep) {
             self.rows.pop_front();
@@ -356,6 +426,7 @@ impl Watch {
             self.learn_until_s = Some(t + self.cfg.baseline_s);
         }
         if let Some(until) = self.learn_until_s {
+            self.push_trace(t, [f64::NAN; 4], true);
             self.learn.push(h);
             if t >= until {
                 self.learn_until_s = None;
@@ -372,8 +443,14 @@ impl Watch {
             }
             return Some(out);
         }
+        if self.holdoff_until_s.is_some_and(|u| t < u) {
+            self.push_trace(t, [f64::NAN; 4], false);
+            return Some(out);
+        }
+        self.holdoff_until_s = None;
         // Change detection.
         let freeze_hops = (self.cfg.freeze_s / self.cfg.hop_s).ceil().max(1.0) as usize;
+        let mut zs = [f64::NAN; 4];
         for i in 0..4 {
             let Some(n) = self.noise[i] else { continue };
             if self.frozen_hops[i] >= freeze_hops && n.frozen_share < 0.2 {
@@ -384,6 +461,10 @@ impl Watch {
             let Some(z) = n.z(&h.f[i], &h.a[i]) else {
                 continue;
             };
+            zs[i] = z;
+            // Huber-clipped: one bad window (a fast turn the model times a little wrong)
+            // adds at most `z_clip`, so only a persistent departure reaches the threshold.
+            let z = z.clamp(-self.cfg.z_clip, self.cfg.z_clip);
             let c = &mut self.cusum[i];
             c.up = (c.up + z - self.cfg.drift).max(0.0);
             c.down = (c.down - z - self.cfg.drift).max(0.0);
@@ -411,6 +492,7 @@ impl Watch {
                 break;
             }
         }
+        self.push_trace(t, zs, false);
         if let Some(p) = self.pending.clone()
             && t - p.onset_s >= self.cfg.evidence_s
         {
@@ -420,12 +502,30 @@ impl Watch {
         Some(out)
     }
 
+    fn push_trace(&mut self, t: f64, z: [f64; 4], learning: bool) {
+        let t_s = self.rel(t);
+        let (up, down) = (
+            std::array::from_fn(|i| self.cusum[i].up),
+            std::array::from_fn(|i| self.cusum[i].down),
+        );
+        if let Some(tr) = &mut self.trace {
+            tr.push(TraceRow {
+                t_s,
+                z,
+                up,
+                down,
+                learning,
+            });
+        }
+    }
+
     fn detect(&mut self, channel: usize, onset_s: f64, t: f64, frozen: bool) {
         self.pending = Some(Pending {
             channel,
             onset_s,
             detected_s: t,
             frozen,
+            step_size: None,
         });
     }
 
@@ -448,10 +548,50 @@ impl Watch {
         start
     }
 
+    /// Takes a raised change into the watch (see the module docs, step 6).
+    fn adopt(&mut self, alert: &Alert, channel: usize, t: f64) {
+        self.cusum = [Cusum::default(); 4];
+        self.frozen_hops = [0; 4];
+        let best = alert.causes.first();
+        let adopted = best
+            .filter(|c| c.is_physical() && c.score >= 0.5)
+            .and_then(|c| c.fitted.as_ref())
+            .and_then(|(cause, theta)| cause.apply(&self.model, theta));
+        if let Some(m) = adopted {
+            self.model = m;
+            // Windows that straddle the change are not judged against the changed model.
+            self.holdoff_until_s = Some(t + self.cfg.history_s);
+            return;
+        }
+        if best.is_some_and(|c| !c.is_physical() && c.score >= 0.5) {
+            let sensor = match best.and_then(|c| c.fitted.as_ref()).map(|f| f.0) {
+                Some(causes::Cause::DepthSensor) => Some(0),
+                Some(causes::Cause::Compass) => Some(1),
+                _ => None,
+            };
+            if let Some(i) = sensor.or(Some(channel)) {
+                self.disabled[i] = true;
+                self.noise[i] = None;
+                if i < 2 {
+                    self.steps.disable(i);
+                }
+            }
+            self.holdoff_until_s = Some(t + self.cfg.history_s);
+            return;
+        }
+        // The new normal.
+        self.learn.clear();
+        self.learn_until_s = Some(t + self.cfg.relearn_s);
+    }
+
     /// Fits the noise floors at the end of a baseline; the first one may say mismatch.
     fn end_baseline(&mut self, t: f64) -> Option<Alert> {
         let hops: Vec<&Hop> = self.learn.iter().collect();
         for i in 0..4 {
+            if self.disabled[i] {
+                self.noise[i] = None;
+                continue;
+            }
             let floor = noise_floor(&hops, i);
             let fitted = ChannelNoise::fit(&hops, i, floor);
             self.noise[i] = match (fitted, self.initial_noise[i]) {
@@ -462,32 +602,15 @@ impl Watch {
         }
         self.cusum = [Cusum::default(); 4];
         let first = self.first_baseline;
+        if first {
+            self.steps.end_baseline();
+        }
         self.first_baseline = false;
         let learned = std::mem::take(&mut self.learn);
         if !first {
             return None;
         }
         self.initial_noise = self.noise;
-        // Mismatch: a large relative error or offset in the baseline.
-        let mut worst: Option<(usize, f64)> = None;
-        for (i, n) in self.noise.iter().enumerate() {
-            let Some(n) = n else { continue };
-            let level = n.mu.iter().map(|m| m.abs()).fold(0.0, f64::max) / n.s0.max(1e-12);
-            let badness = (n.kappa / self.cfg.mismatch_kappa).max(level / self.cfg.mismatch_level);
-            if badness > 1.0 && worst.is_none_or(|w| badness > w.1) {
-                worst = Some((i, badness));
-            }
-        }
-        let (i, _) = worst?;
-        let n = self.noise[i]?;
-        // Size in floors: the baseline residual's RMS over s₀.
-        let ms: Vec<f64> = learned
-            .iter()
-            .flat_map(|h| h.f[i].iter().copied())
-            .filter(|x| x.is_finite())
-            .map(|x| x * x)
-            .collect();
-        let rms = (ms.iter().sum::<f64>() / ms.len().max(1) as f64).sqrt();
         // Causes fitted to the raw baseline residuals (every third hop), without offsets
         // and with the floor at rest only (the model error is what is being explained).
         let sample: Vec<Hop> = learned.iter().step_by(3).cloned().collect();
@@ -506,6 +629,29 @@ impl Watch {
             onset_s: onset,
             frozen: None,
         });
+        let explained = causes
+            .first()
+            .is_some_and(|c| c.is_physical() && c.score >= self.cfg.mismatch_score);
+        // Mismatch: a large offset, or a cause that explains the baseline's residual.
+        let mut worst: Option<(usize, f64)> = None;
+        for (i, n) in self.noise.iter().enumerate() {
+            let Some(n) = n else { continue };
+            let level = n.mu.iter().map(|m| m.abs()).fold(0.0, f64::max) / n.s0.max(1e-12);
+            let badness = level / self.cfg.mismatch_level;
+            if (badness > 1.0 || explained) && worst.is_none_or(|w| badness > w.1) {
+                worst = Some((i, badness));
+            }
+        }
+        let (i, _) = worst?;
+        let n = self.noise[i]?;
+        // Size in floors: the baseline residual's RMS over s₀.
+        let ms: Vec<f64> = learned
+            .iter()
+            .flat_map(|h| h.f[i].iter().copied())
+            .filter(|x| x.is_finite())
+            .map(|x| x * x)
+            .collect();
+        let rms = (ms.iter().sum::<f64>() / ms.len().max(1) as f64).sqrt();
         let alert = Alert {
             t_s: self.rel(onset.max(self.origin_s.unwrap_or(onset))),
             kind: AlertKind::Mismatch,
@@ -520,14 +666,21 @@ impl Watch {
 
     /// Ranks the causes of a detected change and raises its alert; then learns anew.
     fn raise(&mut self, p: Pending, t: f64) -> Option<Alert> {
-        let post: Vec<Hop> = self
-            .recent
-            .iter()
-            .filter(|h| h.t_s > p.onset_s && h.t_s <= t + 1e-9)
-            .cloned()
-            .collect();
+        let after = |from: f64| -> Vec<Hop> {
+            self.recent
+                .iter()
+                .filter(|h| h.t_s > from && h.t_s <= t + 1e-9)
+                .cloned()
+                .collect()
+        };
+        // Windows wholly after the onset carry the change alone; fall back to every
+        // window that saw it when there are too few.
+        let mut post = after(p.onset_s + self.cfg.window_s - 1e-9);
+        if post.len() < 2 {
+            post = after(p.onset_s);
+        }
         let rows: Vec<MeasurementRow> = self.rows.iter().copied().collect();
-        let causes = rank(&FitInput {
+        let mut causes = rank(&FitInput {
             model: &self.model,
             rows: &rows,
             present: self.present,
@@ -538,6 +691,31 @@ impl Watch {
             onset_s: p.onset_s,
             frozen: p.frozen.then_some(p.channel),
         });
+        // A step the readings made (see [`steps`]) is measured directly: its size
+        // replaces the fitted one, and it dates the change.
+        let sensor_id = if p.channel == 0 {
+            "depth-sensor"
+        } else {
+            "compass"
+        };
+        if let Some(size) = p.step_size {
+            for c in causes.iter_mut().filter(|c| c.cause == sensor_id) {
+                c.set_step(size, p.onset_s);
+            }
+        } else if p.frozen {
+            // A reading that stopped moving: say so, and where it stuck.
+            let at = self.rows.back().map(|r| features::reading(r)[p.channel]);
+            for c in causes.iter_mut().filter(|c| c.cause == sensor_id) {
+                c.words = match (p.channel, at) {
+                    (0, Some(v)) => format!("DEPTH SENSOR STUCK AT {v:.2} m"),
+                    (_, Some(v)) => format!(
+                        "COMPASS STUCK AT {:03.0}°",
+                        rov_types::angle::wrap_deg_360(v)
+                    ),
+                    _ => "SENSOR STUCK".into(),
+                };
+            }
+        }
         let size = self.noise[p.channel].map_or(0.0, |n| {
             post.iter()
                 .filter_map(|h| n.z(&h.f[p.channel], &h.a[p.channel]))
@@ -554,13 +732,8 @@ impl Watch {
             causes,
             detected_s: self.rel(t),
         };
+        self.adopt(&alert, p.channel, t);
         self.alerts.push(alert.clone());
-        // The new normal.
-        self.learn.clear();
-        self.learn_until_s = Some(t + self.cfg.relearn_s);
-        self.cusum = [Cusum::default(); 4];
-        self.frozen_hops = [0; 4];
-        let _ = p.detected_s;
         Some(alert)
     }
 }

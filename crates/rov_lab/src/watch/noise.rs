@@ -12,6 +12,16 @@ use super::features::Hop;
 /// Median of a χ²₁ variable: a median of squares over this is a variance.
 const CHI2_1_MEDIAN: f64 = 0.455;
 
+/// Predicted motion, in floors s₀, above which a sub-window informs the relative error.
+const KAPPA_MIN_MOTION: f64 = 5.0;
+
+/// The relative model error assumed where the dive cannot measure it (and the least
+/// ever assumed): a calibrated model still errs by a few percent of what it predicts.
+pub(crate) const KAPPA_PRIOR: f64 = 0.05;
+
+/// The 90th percentile of |z| for a standard normal z.
+const Z_Q90: f64 = 1.645;
+
 /// Least hops for a fit.
 pub(crate) const MIN_HOPS: usize = 10;
 
@@ -86,22 +96,49 @@ impl ChannelNoise {
         let s0 = (median(&mut low).unwrap_or(0.0) / CHI2_1_MEDIAN)
             .sqrt()
             .max(floor);
+        // κ only from sub-windows whose predicted motion stands well above the floor:
+        // where a ≈ s₀ the ratio is noise over a small number and says nothing of the
+        // model's relative error. Too few such sub-windows: κ stays at its prior.
         let mut ratios: Vec<f64> = pairs
             .iter()
-            .skip(half)
-            .filter(|p| p.0 > 1e-9)
+            .filter(|p| p.0 > KAPPA_MIN_MOTION * s0)
             .map(|p| ((p.1 / CHI2_1_MEDIAN - s0 * s0).max(0.0)) / (p.0 * p.0))
             .collect();
-        let kappa = median(&mut ratios).unwrap_or(0.0).sqrt();
+        let kappa = if ratios.len() >= MIN_HOPS {
+            median(&mut ratios).unwrap_or(0.0).sqrt().max(KAPPA_PRIOR)
+        } else {
+            KAPPA_PRIOR
+        };
         let frozen_share =
             usable.iter().filter(|h| h.frozen[i]).count() as f64 / usable.len() as f64;
-        Some(Self {
+        let mut fit = Self {
             mu,
             s0,
             kappa: if kappa.is_finite() { kappa } else { 0.0 },
             frozen_share,
             n: usable.len(),
-        })
+        };
+        // Calibration on the baseline itself: the model's errors are not Gaussian (a
+        // turn it times a little wrong gives a run of large residuals). Where the
+        // baseline's 90th percentile of |z| per sub-window exceeds the Gaussian's 1.645,
+        // both s₀ and κ are widened by that ratio, so the dive's own tails are normal.
+        let mut az: Vec<f64> = usable
+            .iter()
+            .flat_map(|h| fit.zs(&h.f[i], &h.a[i]))
+            .filter(|z| z.is_finite())
+            .map(f64::abs)
+            .collect();
+        az.sort_by(f64::total_cmp);
+        let q90 = az
+            .get((az.len() as f64 * 0.9) as usize)
+            .copied()
+            .unwrap_or(0.0);
+        let inflate = (q90 / Z_Q90).max(1.0);
+        if inflate.is_finite() {
+            fit.s0 *= inflate;
+            fit.kappa *= inflate;
+        }
+        Some(fit)
     }
 
     /// The larger of two fits, sub-window by sub-window for the offsets of `self`.

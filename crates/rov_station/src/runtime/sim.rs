@@ -64,22 +64,24 @@ impl SimApp for App {
 }
 
 /// The simulated Pro 4 of a configuration (model 3, or the model of `sim_vehicle`; its
-/// seed and link faults), for the live runtime and the virtual station alike.
+/// seed, link faults and vehicle faults), for the live runtime and the virtual station alike.
 pub(crate) fn sim_vehicle(cfg: &RuntimeConfig) -> Result<Vehicle, rov_vehicle::VehicleError> {
     let vcfg = VehicleConfig {
         faults: cfg.sim_faults.clone(),
         ..VehicleConfig::default()
     };
-    match &cfg.sim_vehicle {
+    let mut vehicle = match &cfg.sim_vehicle {
         Some(v) => {
             let sim = rov_sim::Simulator::new(
                 rov_sim::SimConfig::with_model(v.model.clone()),
                 cfg.sim_seed,
             )?;
-            Ok(Vehicle::new(vcfg, sim))
+            Vehicle::new(vcfg, sim)
         }
-        None => Vehicle::with_model3(vcfg, cfg.sim_seed),
-    }
+        None => Vehicle::with_model3(vcfg, cfg.sim_seed)?,
+    };
+    vehicle.sim_mut().set_faults(cfg.vehicle_faults.clone());
+    Ok(vehicle)
 }
 
 /// The live engine on virtual time; see the module docs.
