@@ -19,7 +19,8 @@
 //! residual of the hops after the onset; the sensor causes are a step of the reading
 //! (a jump) or a reading that stops following the motion (stuck) from a time scanned
 //! around the onset. The score is the share of the normalised residual energy the
-//! fitted cause explains, 1 − RSS(θ̂)/RSS(0), in [0, 1]. A reading that repeats one
+//! fitted cause explains, 1 − RSS(θ̂)/RSS(0), in [0, 1], halved when the fitted size
+//! ends at its search bound (not a plausible size, so not a finding). A reading that repeats one
 //! value exactly where it was noisy before (the detector's freeze test) is a sensor
 //! fault: its sensor cause gets score 1.
 
@@ -35,6 +36,9 @@ use super::features::{
 };
 use super::noise::ChannelNoise;
 use super::{CHANNELS, SUB, WatchConfig};
+
+/// Score factor of a cause whose fitted size ends at its search bound.
+const BOUND_PENALTY: f64 = 0.5;
 
 /// One ranked cause (the pinned JSON shape).
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -167,7 +171,9 @@ impl Cause {
         match self {
             Cause::ThrustLoss(_) => (0.05, 0.0, 0.99),
             Cause::Buoyancy => (0.5, -60.0, 60.0),
-            Cause::Drag => (0.1, -0.8, 10.0),
+            // Drag ×0.2..×5: fouling, a snagged line or a lost panel; more is no longer
+            // "drag" but something the vehicle is attached to.
+            Cause::Drag => (0.1, -0.8, 4.0),
             Cause::Snag => (1.0, -300.0, 300.0),
             Cause::DepthSensor | Cause::Compass => (1.0, f64::NEG_INFINITY, f64::INFINITY),
         }
@@ -521,6 +527,19 @@ pub(crate) fn rank(input: &FitInput<'_>) -> Vec<CauseScore> {
             },
         };
         let mut score = (1.0 - rss / rss0).clamp(0.0, 1.0);
+        // A fit that ends at its search bound did not find the cause's size within
+        // what is physically plausible: it explains the residual only by being pushed
+        // as far as allowed, so it is not presented as a finding of that size.
+        let at_bound = cause.n_params() > 0 && {
+            let (_, lo, hi) = cause.step_bounds();
+            let span = (hi - lo).abs();
+            theta
+                .iter()
+                .any(|t| (t - lo).abs() < 0.01 * span || (hi - t).abs() < 0.01 * span)
+        };
+        if at_bound {
+            score *= BOUND_PENALTY;
+        }
         let frozen_here = match cause {
             Cause::DepthSensor => input.frozen == Some(0),
             Cause::Compass => input.frozen == Some(1),

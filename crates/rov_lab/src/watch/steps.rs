@@ -219,7 +219,8 @@ mod tests {
         }
         let st = got.expect("a compass jump");
         assert_eq!(st.channel, 1);
-        assert!((st.size - 25.0).abs() < 1.0, "{st:?}");
+        // The gyro stops within the step (trapezoid of 40 and 0 deg/s over 0.1 s: 2°).
+        assert!((st.size - 25.0).abs() < 3.0, "{st:?}");
         // A depth jump of 1 m in a sample is one too.
         let mut got = None;
         for _ in 0..20 {
