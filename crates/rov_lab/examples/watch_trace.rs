@@ -11,7 +11,26 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let series = MeasurementSeries::parse_csv(&text, path)?;
     let id: rov_types::ModelId = model_name.parse()?;
     let model = rov_lab::load_model(&id, None)?;
-    let mut w = Watch::new(model, WatchConfig::default(), series.present);
+    let mut cfg = WatchConfig::default();
+    if let Some(v) = std::env::var("WATCH_THRESHOLD")
+        .ok()
+        .and_then(|v| v.parse().ok())
+    {
+        cfg.threshold = v;
+    }
+    if let Some(v) = std::env::var("WATCH_BASELINE_S")
+        .ok()
+        .and_then(|v| v.parse().ok())
+    {
+        cfg.baseline_s = v;
+    }
+    if let Some(v) = std::env::var("WATCH_DRIFT")
+        .ok()
+        .and_then(|v| v.parse().ok())
+    {
+        cfg.drift = v;
+    }
+    let mut w = Watch::new(model, cfg, series.present);
     w.keep_trace(true);
     let mut shown = false;
     for r in &series.rows {

@@ -69,6 +69,7 @@ pub mod timing;
 pub mod video;
 pub mod video_replay;
 pub mod view;
+pub mod watch;
 
 #[cfg(test)]
 mod tests;
@@ -129,6 +130,11 @@ pub struct RuntimeConfig {
     /// snag, depth sensor, compass), each from its own time on the simulator's clock
     /// (`--fault SPEC`); none by default.
     pub vehicle_faults: Vec<rov_sim::FaultSpec>,
+    /// The model watch's model (`--model FILE.toml`'s lab model); `None`: the shipped
+    /// base model the autopilot uses (`control.feedforward_model`).
+    pub watch_model: Option<rov_lab::LabModel>,
+    /// Run the model watch (on by default).
+    pub watch: bool,
     /// Keyboard sticks older than this count as released, µs.
     pub keyboard_timeout_us: u64,
     /// Recording waits for the writer instead of dropping messages when its queue is
@@ -164,6 +170,8 @@ impl Default for RuntimeConfig {
             sim_seed: 1,
             sim_faults: rov_vehicle::FaultConfig::none(),
             vehicle_faults: Vec::new(),
+            watch_model: None,
+            watch: true,
             keyboard_timeout_us: 300_000,
             record_blocking: false,
             reconnect: ReconnectSettings::default(),

@@ -139,8 +139,13 @@ pub fn apply_models(
             cfg.control.feedforward_model = *b;
             cfg.autopilot_model = None;
         }
-        Some(id @ rov_types::ModelId::File(_)) => {
+        Some(id @ rov_types::ModelId::File(path)) => {
             cfg.autopilot_model = crate::cmd_hold::autopilot_model(id).context("--model")?;
+            // The model watch compares the vehicle with the same model, as the lab
+            // reads it (effects and terms included).
+            let text = std::fs::read_to_string(path)
+                .with_context(|| format!("--model: reading {}", path.display()))?;
+            cfg.watch_model = Some(rov_lab::load_model(id, Some(&text)).context("--model")?);
         }
         None => {}
     }

@@ -114,8 +114,22 @@ fn a_compass_disturbance_is_found_named_and_sized_and_a_clean_dive_raises_nothin
         .collect();
     assert!(scores.windows(2).all(|w| w[0] >= w[1]), "{scores:?}");
 
+    // The station's own watch (inline on virtual time) raised it while the dive was
+    // flown: a model_watch event in the session, with the cause in words.
+    let csv = export_csv(&faulty);
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let live: Vec<&str> = text.lines().filter(|l| l.contains("model_watch")).collect();
+    assert_eq!(live.len(), 1, "{live:?}");
+    assert!(
+        live[0].contains("change on heading") && live[0].contains("COMPASS OFF +25"),
+        "{}",
+        live[0]
+    );
+    let clean_csv = std::fs::read_to_string(export_csv(&clean)).unwrap();
+    assert!(!clean_csv.contains("model_watch"));
+
     // The exported measurement CSV gives the same finding.
-    let csv_changes = changes(&lab_watch(&export_csv(&faulty)));
+    let csv_changes = changes(&lab_watch(&csv));
     let c = csv_changes.first().expect("a change alert from the CSV");
     assert_eq!(c["causes"][0]["cause"], "compass", "{c}");
     assert!((c["t_s"].as_f64().unwrap() - t_s).abs() < 1.0, "{c}");

@@ -91,6 +91,9 @@ pub struct WatchConfig {
     pub threshold: f64,
     /// Largest |z| one evaluation adds to the CUSUM (4).
     pub z_clip: f64,
+    /// Least size of a change, noise floors per sub-window in some window after the
+    /// onset (3); sensor evidence (a frozen or stepping reading) needs none.
+    pub min_size_noise: f64,
     /// Time after the onset before the causes are ranked, s (6).
     pub evidence_s: f64,
     /// Share of the baseline's residual a cause must explain for "mismatch" (0.5).
@@ -113,6 +116,7 @@ impl Default for WatchConfig {
             drift: 1.5,
             threshold: 14.0,
             z_clip: 4.0,
+            min_size_noise: 3.0,
             evidence_s: 6.0,
             mismatch_score: 0.5,
             mismatch_level: 6.0,
@@ -194,6 +198,8 @@ pub struct WatchStats {
     pub hops: u64,
     /// Evaluations that could not run (too few rows, a gap, a failed simulation).
     pub hops_skipped: u64,
+    /// Detections dismissed as smaller than `min_size_noise`.
+    pub dismissed: u64,
 }
 
 #[derive(Debug, Clone, Copy, Default)]
@@ -679,6 +685,22 @@ impl Watch {
         if post.len() < 2 {
             post = after(p.onset_s);
         }
+        let size = self.noise[p.channel].map_or(0.0, |n| {
+            after(p.onset_s)
+                .iter()
+                .filter_map(|h| n.z(&h.f[p.channel], &h.a[p.channel]))
+                .map(|z| z.abs() / (SUB as f64).sqrt())
+                .fold(0.0, f64::max)
+        });
+        // A slow accumulation that never stands `min_size_noise` floors out in any window
+        // is the model's own drift (a long cruise it predicts a little wrong), not a
+        // change of the vehicle; a sensor's own evidence (a frozen or stepping reading)
+        // needs no size.
+        if !p.frozen && size < self.cfg.min_size_noise {
+            self.stats.dismissed += 1;
+            self.cusum = [Cusum::default(); 4];
+            return None;
+        }
         let rows: Vec<MeasurementRow> = self.rows.iter().copied().collect();
         let mut causes = rank(&FitInput {
             model: &self.model,
@@ -716,12 +738,6 @@ impl Watch {
                 };
             }
         }
-        let size = self.noise[p.channel].map_or(0.0, |n| {
-            post.iter()
-                .filter_map(|h| n.z(&h.f[p.channel], &h.a[p.channel]))
-                .map(|z| z.abs() / (SUB as f64).sqrt())
-                .fold(0.0, f64::max)
-        });
         // A sensor cause ranked first dates the change itself.
         let onset = causes.first().and_then(|c| c.from_s).unwrap_or(p.onset_s);
         let alert = Alert {

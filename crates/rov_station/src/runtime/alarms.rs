@@ -41,13 +41,19 @@ pub enum AlarmKind {
     SensorStale,
     /// The control tick ran late by more than three periods (watchdog sent neutral).
     ControlStall,
+    /// The model watch found the vehicle changed during the dive (a thruster losing
+    /// thrust, weight taken on, drag, a snag, a sensor fault); the words are in
+    /// [`crate::runtime::view::WatchView`]. Latched for the rest of the dive (the
+    /// vehicle stays changed); a new change raises it again.
+    VehicleChanged,
 }
 
 impl AlarmKind {
     /// Every alarm, in display priority order.
-    pub const ALL: [AlarmKind; 10] = [
+    pub const ALL: [AlarmKind; 11] = [
         AlarmKind::LinkLost,
         AlarmKind::ControlStall,
+        AlarmKind::VehicleChanged,
         AlarmKind::HumidityRising,
         AlarmKind::HumidityHigh,
         AlarmKind::DepthMax,
@@ -72,6 +78,7 @@ impl AlarmKind {
             AlarmKind::InternalTempHigh => "INTERNAL TEMP HIGH",
             AlarmKind::SensorStale => "SENSOR STALE",
             AlarmKind::ControlStall => "CONTROL STALL",
+            AlarmKind::VehicleChanged => "VEHICLE CHANGED",
         }
     }
 
@@ -89,6 +96,7 @@ impl AlarmKind {
             AlarmKind::InternalTempHigh => "internal_temp_high",
             AlarmKind::SensorStale => "sensor_stale",
             AlarmKind::ControlStall => "control_stall",
+            AlarmKind::VehicleChanged => "vehicle_changed",
         }
     }
 
@@ -394,6 +402,8 @@ pub struct AlarmInputs {
     pub sensor_fault: bool,
     /// The watchdog tripped since the last evaluation.
     pub control_stall: bool,
+    /// The model watch's latest change, its size in noise floors (None: no change).
+    pub vehicle_changed_noise: Option<f64>,
 }
 
 impl Alarms {
@@ -631,7 +641,21 @@ impl Alarms {
             now_s,
             &mut out,
         );
+        self.set(
+            AlarmKind::VehicleChanged,
+            i.vehicle_changed_noise.map(|_| AlarmLevel::Warning),
+            i.vehicle_changed_noise,
+            None,
+            now_s,
+            &mut out,
+        );
         out
+    }
+
+    /// Forgets an alarm so its cause, still present, raises it anew at the next
+    /// evaluation (a second change of the vehicle is news).
+    pub fn reraise(&mut self, kind: AlarmKind) {
+        self.list.retain(|a| a.kind != kind);
     }
 }
 

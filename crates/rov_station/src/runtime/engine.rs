@@ -29,7 +29,8 @@ use crate::runtime::pad::{Action, PadButton, PadState};
 use crate::runtime::predict::{Anchor, Predictor};
 use crate::runtime::recorder::{RecordItem, Recorder};
 use crate::runtime::shaping::{ArmHold, Gain, StickShaping, to_controller};
-use crate::runtime::view::{AxisModeView, PadStatus, Pipeline, Source, link_state};
+use crate::runtime::view::{AxisModeView, PadStatus, Pipeline, Source, WatchAlertView, link_state};
+use crate::runtime::watch::{StationWatch, nav_row};
 use crate::runtime::{
     CameraCommand, ChecklistCommand, GainCommand, RuntimeCommand, RuntimeConfig, RuntimeError,
     Shared, lock, try_lock,
@@ -51,6 +52,12 @@ pub(crate) enum Followup {
 
 #[derive(Debug)]
 pub(crate) struct Engine {
+    /// The model watch (issue 23); `None` when off or its model did not load.
+    watch: Option<StationWatch>,
+    /// The thrust command in force (the watch's rows carry it), %.
+    thrust_now_pct: [f64; 3],
+    /// The latest change the watch found, in noise floors (the alarm's cause).
+    vehicle_changed_noise: Option<f64>,
     core: StationCore,
     models: ModelSet,
     cfg: RuntimeConfig,
@@ -209,7 +216,30 @@ impl Engine {
         let mut pipeline = Pipeline::new(source);
         pipeline.view.alarm_limits = cfg.alarms;
         pipeline.view.pilot.pad_map = cfg.pad_map.clone();
+        let mut watch_off: Option<String> = (!cfg.watch).then(|| "off in the settings".into());
+        let watch = if cfg.watch {
+            let model = match &cfg.watch_model {
+                Some(m) => Ok(m.clone()),
+                None => rov_lab::load_model(
+                    &rov_types::ModelId::Base(cfg.control.feedforward_model),
+                    None,
+                ),
+            };
+            match model {
+                Ok(m) => Some(StationWatch::new(m, false)),
+                Err(e) => {
+                    watch_off = Some(format!("its model did not load: {e}"));
+                    None
+                }
+            }
+        } else {
+            None
+        };
+        pipeline.view.watch.off_reason = watch_off;
         Ok(Self {
+            watch,
+            thrust_now_pct: [0.0; 3],
+            vehicle_changed_noise: None,
             core,
             models,
             alarms: Alarms::new(cfg.alarms),
@@ -332,6 +362,69 @@ impl Engine {
     }
 
     /// [`RuntimeCommand::AutopilotModel`].
+    /// Runs the model watch inline (virtual time: no thread, same alerts).
+    pub fn watch_inline(&mut self) {
+        if let Some(w) = &mut self.watch {
+            w.set_inline();
+        }
+    }
+
+    /// The model watch's alerts into the dive: an event each (in the replay index), the
+    /// VEHICLE CHANGED alarm for a change, the words in the view. A mismatch is only an
+    /// event and a line (the model was wrong from the start: a job for the lab, not an
+    /// alarm).
+    fn take_alerts(&mut self, alerts: Vec<rov_lab::watch::Alert>, now_us: u64) {
+        let t_s = now_us as f64 * 1e-6;
+        for a in alerts {
+            let words = a.words();
+            // The alert's times count from the watch's first row; the onset in station
+            // time is as far before now as the alert says it was before its detection.
+            let since_s = t_s - (a.detected_s - a.t_s).max(0.0);
+            let (kind, sev) = match a.kind {
+                rov_lab::watch::AlertKind::Change => {
+                    self.vehicle_changed_noise = Some(a.size_noise);
+                    self.alarms
+                        .reraise(crate::runtime::alarms::AlarmKind::VehicleChanged);
+                    ("change", Severity::Warning)
+                }
+                rov_lab::watch::AlertKind::Mismatch => ("mismatch", Severity::Info),
+            };
+            let causes: Vec<String> = a
+                .causes
+                .iter()
+                .take(3)
+                .map(|c| format!("{} {} {} ({:.2})", c.cause, c.size, c.unit, c.score))
+                .collect();
+            self.event(
+                now_us,
+                "model_watch",
+                sev,
+                format!(
+                    "{kind} on {} since {since_s:.1} s, {:.1} noise floors: {words}; causes: {}",
+                    a.channel,
+                    a.size_noise,
+                    causes.join(", ")
+                ),
+            );
+            self.pipeline.view.watch.alerts.push(WatchAlertView {
+                kind: kind.into(),
+                channel: a.channel.clone(),
+                since_s,
+                words,
+                size_noise: a.size_noise,
+            });
+        }
+        if let Some(w) = &self.watch {
+            let v = &mut self.pipeline.view.watch;
+            v.running = w.running();
+            v.rows = w.rows;
+            v.dropped_rows = w.dropped_rows;
+            if let Some(e) = &w.error {
+                v.off_reason = Some(e.clone());
+            }
+        }
+    }
+
     fn autopilot_model(
         &mut self,
         link: &Link,
@@ -386,6 +479,10 @@ impl Engine {
                 self.pipeline.nav(t_s, &r);
                 self.last_nav_us = Some(now_us);
                 self.record(|ts| RecordItem::Nav(ts, r), now_us);
+                if let Some(w) = &mut self.watch {
+                    let alerts = w.push(nav_row(t_s, self.thrust_now_pct, t));
+                    self.take_alerts(alerts, now_us);
+                }
                 if !self.tare_sent {
                     // The link converts pressure to depth with its surface pressure; the
                     // controller's tare (for the vehicle's own auto-depth target) must
@@ -659,6 +756,11 @@ impl Engine {
             self.event(now_us, "autopilot", Severity::Info, text);
         }
 
+        self.thrust_now_pct = [tp, ts, tv];
+        if let Some(w) = &mut self.watch {
+            let alerts = w.poll();
+            self.take_alerts(alerts, now_us);
+        }
         self.pipeline.thrust(&thrust);
         self.pipeline.pilot(&pilot);
         self.pipeline.autopilot(&auto);
@@ -727,6 +829,7 @@ impl Engine {
                 .map(|t| now_us.saturating_sub(t) as f64 * 1e-6),
             sensor_fault,
             control_stall: stall,
+            vehicle_changed_noise: self.vehicle_changed_noise,
         };
         for change in self.alarms.evaluate(t_s, &inputs) {
             match change {

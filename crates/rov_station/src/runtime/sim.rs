@@ -130,6 +130,7 @@ impl VirtualStation {
         let video = Arc::new(crate::runtime::video::StationVideo::virtual_sim(&cfg.video));
         let mut engine = Engine::new(cfg, models, Arc::clone(&shared), Source::Sim)?;
         engine.attach_video(Arc::clone(&video));
+        engine.watch_inline();
         let app = App {
             engine,
             video: Arc::clone(&video),

@@ -280,8 +280,41 @@ pub struct IndexedEvent {
 }
 
 /// Everything the GUI draws, latest value; see the module docs.
+/// One alert of the model watch, for the pilot.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct WatchAlertView {
+    /// `change` or `mismatch`.
+    pub kind: String,
+    /// The channel where it showed.
+    pub channel: String,
+    /// When it began, station time s.
+    pub since_s: f64,
+    /// The alert in words ("PORT THRUST −40 %"; a mismatch suggests the lab).
+    pub words: String,
+    /// Its size in noise floors.
+    pub size_noise: f64,
+}
+
+/// The model watch (issue 23).
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+pub struct WatchView {
+    /// Whether it runs (it needs navigation replies).
+    pub running: bool,
+    /// Every alert of the dive, oldest first.
+    pub alerts: Vec<WatchAlertView>,
+    /// Rows given to it, and rows dropped because it was behind.
+    pub rows: u64,
+    /// Rows dropped because its thread was behind.
+    pub dropped_rows: u64,
+    /// Why it does not run, when it does not (off in the settings, its model did not
+    /// load, its thread did not start).
+    pub off_reason: Option<String>,
+}
+
 #[derive(Debug, Default, Serialize)]
 pub struct StationView {
+    /// The model watch: alerts in words.
+    pub watch: WatchView,
     /// Data source.
     pub source: Source,
     /// Published views so far.
@@ -812,7 +845,8 @@ crate::clone_fields!(StationView {
     control_priority,
     alarm_limits,
     dive,
-    checklist
+    checklist,
+    watch
 });
 
 crate::clone_fields!(LinkView {
