@@ -150,6 +150,53 @@ fn a_port_thrust_loss_is_named_with_its_size() {
 }
 
 #[test]
+fn a_model_that_is_merely_wrong_gives_one_mismatch_and_no_change() {
+    // The vehicle has a 0.4-s thruster lag and half-strength reverse vertical thrust
+    // (a lab-learned extended model); the autopilot and the watch use plain model3.
+    let base = std::fs::read_to_string(format!(
+        "{}/../../config/models/model3.toml",
+        env!("CARGO_MANIFEST_DIR")
+    ))
+    .unwrap();
+    let vehicle = tmp("lagged.toml");
+    std::fs::write(
+        &vehicle,
+        format!(
+            "{base}\n[lab]\nbase = \"model3\"\neffects = [\"thrust-asymmetry\", \"thruster-lag\"]\n[lab.params]\nreverse_ratio_vertical = {{ value = 0.5, unit = \"-\", source = \"test\" }}\nlag_time_constant_s = {{ value = 0.4, unit = \"s\", source = \"test\" }}\n"
+        ),
+    )
+    .unwrap();
+    let out = tmp("lagged.mcap");
+    let o = topside()
+        .args([
+            "record",
+            "--sim",
+            "--fast",
+            "--duration-s",
+            "600",
+            "--video",
+            "none",
+        ])
+        .args(["--script", &script(), "--json", "--vehicle"])
+        .arg(&vehicle)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let alerts = j["watch"]["alerts"].as_array().unwrap();
+    assert_eq!(alerts.len(), 1, "{alerts:?}");
+    assert_eq!(alerts[0]["kind"], "mismatch", "{alerts:?}");
+    // It is dated in the first minute (the baseline) and sized in noise floors.
+    assert!(alerts[0]["t_s"].as_f64().unwrap() < 60.0, "{alerts:?}");
+    assert!(
+        alerts[0]["size_noise"].as_f64().unwrap() > 3.0,
+        "{alerts:?}"
+    );
+}
+
+#[test]
 fn bad_fault_specs_are_named() {
     for (spec, says) in [
         ("thrust-loss:aft:0.4@300", "aft"),

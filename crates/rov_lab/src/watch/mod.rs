@@ -18,7 +18,8 @@
 //!    channel, an offset μ, a floor s₀ and a relative model error κ (σ² = s₀² + κ²a², a
 //!    the motion the model predicts over the sub-window; [`noise`]).
 //! 3. **Mismatch.** A model that is wrong from the start shows in that baseline: an
-//!    offset |μ| above `mismatch_level` floors, or a cause that explains at least
+//!    offset |μ| above `mismatch_level` floors, a floor s₀ above `mismatch_floor_ratio`
+//!    times the sensor's own noise, or a cause that explains at least
 //!    `mismatch_score` of the baseline's residual, gives one `mismatch` alert (suggest
 //!    the lab), with the causes fitted to the baseline; the noise floor then includes
 //!    that error, so it raises no change alert. A large relative error κ alone is not a
@@ -98,6 +99,11 @@ pub struct WatchConfig {
     pub evidence_s: f64,
     /// Share of the baseline's residual a cause must explain for "mismatch" (0.5).
     pub mismatch_score: f64,
+    /// The model's short-window error at rest, in the sensor's own noise floors, above
+    /// which the baseline says "mismatch" (15: the simulated vehicle's own model stays
+    /// within 5.2 on heading and 1 elsewhere; a model missing a 0.4-s thruster lag and a
+    /// half-strength reverse thrust stands at 62–137).
+    pub mismatch_floor_ratio: f64,
     /// Baseline offset above which it says "mismatch", noise floors (6).
     pub mismatch_level: f64,
     /// A reading frozen this long where it was noisy is a change, s (2).
@@ -119,6 +125,7 @@ impl Default for WatchConfig {
             min_size_noise: 3.0,
             evidence_s: 6.0,
             mismatch_score: 0.5,
+            mismatch_floor_ratio: 15.0,
             mismatch_level: 6.0,
             freeze_s: 2.0,
             relearn_s: 60.0,
@@ -312,9 +319,9 @@ impl Watch {
     }
 
     /// The learned noise floor per channel (offsets μ per sub-window, floor s₀, relative
-    /// error κ), `None` before it is learned or where the channel is absent.
-    pub fn noise_floors(&self) -> [Option<([f64; SUB], f64, f64)>; 4] {
-        std::array::from_fn(|i| self.noise[i].map(|n| (n.mu, n.s0, n.kappa)))
+    /// error κ, the sensor's own floor), `None` before it is learned or where the channel is absent.
+    pub fn noise_floors(&self) -> [Option<([f64; SUB], f64, f64, f64)>; 4] {
+        std::array::from_fn(|i| self.noise[i].map(|n| (n.mu, n.s0, n.kappa, n.sensor_floor)))
     }
 
     /// Counters.
@@ -643,14 +650,16 @@ impl Watch {
         for (i, n) in self.noise.iter().enumerate() {
             let Some(n) = n else { continue };
             let level = n.mu.iter().map(|m| m.abs()).fold(0.0, f64::max) / n.s0.max(1e-12);
-            let badness = level / self.cfg.mismatch_level;
+            let spread = n.s0 / n.sensor_floor.max(1e-12);
+            let badness =
+                (level / self.cfg.mismatch_level).max(spread / self.cfg.mismatch_floor_ratio);
             if (badness > 1.0 || explained) && worst.is_none_or(|w| badness > w.1) {
                 worst = Some((i, badness));
             }
         }
         let (i, _) = worst?;
         let n = self.noise[i]?;
-        // Size in floors: the baseline residual's RMS over s₀.
+        // Size: the baseline residual's RMS.
         let ms: Vec<f64> = learned
             .iter()
             .flat_map(|h| h.f[i].iter().copied())
@@ -662,7 +671,8 @@ impl Watch {
             t_s: self.rel(onset.max(self.origin_s.unwrap_or(onset))),
             kind: AlertKind::Mismatch,
             channel: ch_name(CHANNELS[i]).to_string(),
-            size_noise: round2(rms / n.s0.max(1e-12)),
+            // In the sensor's own floors: the learned floor already holds the error.
+            size_noise: round2(rms / n.sensor_floor.max(1e-12)),
             causes,
             detected_s: self.rel(t),
         };

@@ -38,6 +38,8 @@ pub(crate) struct ChannelNoise {
     pub frozen_share: f64,
     /// Hops the fit used.
     pub n: usize,
+    /// The sensor's own floor the fit was given (the least s₀ allowed).
+    pub sensor_floor: f64,
 }
 
 impl ChannelNoise {
@@ -117,6 +119,7 @@ impl ChannelNoise {
             kappa: if kappa.is_finite() { kappa } else { 0.0 },
             frozen_share,
             n: usable.len(),
+            sensor_floor: floor,
         };
         // Calibration on the baseline itself: the model's errors are not Gaussian (a
         // turn it times a little wrong gives a run of large residuals). Where the
