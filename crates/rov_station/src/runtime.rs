@@ -310,6 +310,10 @@ pub enum RuntimeCommand {
     },
     /// Fault injection for tests: block the control thread for this long.
     InjectStall(Duration),
+    /// A fault the simulated vehicle suffers (issue 23, training): its start time
+    /// counts from when the vehicle takes it (`@0`: at once). Refused with a real
+    /// vehicle.
+    InjectFault(rov_sim::FaultSpec),
     /// Stop the runtime.
     Shutdown,
 }

@@ -63,6 +63,25 @@ impl VehicleRunner {
 /// simulation has advanced and the lock is free; a reader never blocks the vehicle.
 pub type TruthTap = Arc<Mutex<Option<TruthState>>>;
 
+/// Faults to inject into a running vehicle's simulator (issue 23: the station's Settings
+/// page). Each spec's start time counts from when the runner takes it (`@0`: at once);
+/// the runner drains it whenever the lock is free, so a writer never blocks the vehicle.
+pub type FaultInbox = Arc<Mutex<Vec<rov_sim::FaultSpec>>>;
+
+/// Moves the faults waiting in `inbox` into the vehicle (start times from now on the
+/// vehicle's clock). Never waits for the lock.
+pub fn take_faults(vehicle: &mut Vehicle, inbox: &FaultInbox) {
+    if let Ok(mut waiting) = inbox.try_lock()
+        && !waiting.is_empty()
+    {
+        let now_s = vehicle.sim().time_s();
+        for mut f in waiting.drain(..) {
+            f.start_s += now_s;
+            vehicle.sim_mut().add_fault(f);
+        }
+    }
+}
+
 /// Runs `vehicle` on `transport` in a new thread; vehicle time 0 is now.
 #[must_use]
 pub fn spawn(vehicle: Vehicle, transport: Box<dyn Transport>, cfg: RunnerConfig) -> VehicleRunner {
@@ -80,6 +99,22 @@ pub fn spawn_with_truth(
     spawn_inner(vehicle, transport, cfg, Some(tap))
 }
 
+/// [`spawn_with_truth`], also taking faults to inject from `faults`.
+#[must_use]
+pub fn spawn_with_taps(
+    vehicle: Vehicle,
+    transport: Box<dyn Transport>,
+    cfg: RunnerConfig,
+    tap: TruthTap,
+    faults: FaultInbox,
+) -> VehicleRunner {
+    let stop = Arc::new(AtomicBool::new(false));
+    let flag = Arc::clone(&stop);
+    let join =
+        std::thread::spawn(move || run(vehicle, transport, &flag, cfg, Some(&tap), Some(&faults)));
+    VehicleRunner { stop, join }
+}
+
 fn spawn_inner(
     vehicle: Vehicle,
     transport: Box<dyn Transport>,
@@ -88,7 +123,7 @@ fn spawn_inner(
 ) -> VehicleRunner {
     let stop = Arc::new(AtomicBool::new(false));
     let flag = Arc::clone(&stop);
-    let join = std::thread::spawn(move || run(vehicle, transport, &flag, cfg, tap.as_ref()));
+    let join = std::thread::spawn(move || run(vehicle, transport, &flag, cfg, tap.as_ref(), None));
     VehicleRunner { stop, join }
 }
 
@@ -98,6 +133,7 @@ fn run(
     stop: &AtomicBool,
     cfg: RunnerConfig,
     tap: Option<&TruthTap>,
+    faults: Option<&FaultInbox>,
 ) -> Result<Vehicle, VehicleError> {
     let clock = MonoClock::new();
     let mut buf = vec![0u8; 4096];
@@ -106,6 +142,9 @@ fn run(
     let mut published_s = f64::NEG_INFINITY;
     while !stop.load(Ordering::Relaxed) {
         let now = clock.now_us();
+        if let Some(inbox) = faults {
+            take_faults(&mut vehicle, inbox);
+        }
         vehicle.advance_to(now)?;
         if let Some(tap) = tap {
             let truth = vehicle.sim().truth();

@@ -54,6 +54,8 @@ pub(crate) enum Followup {
 pub(crate) struct Engine {
     /// The model watch (issue 23); `None` when off or its model did not load.
     watch: Option<StationWatch>,
+    /// Where injected faults go (the simulated vehicle only).
+    fault_inbox: Option<rov_vehicle::runner::FaultInbox>,
     /// The thrust command in force (the watch's rows carry it), %.
     thrust_now_pct: [f64; 3],
     /// The latest change the watch found, in noise floors (the alarm's cause).
@@ -238,6 +240,7 @@ impl Engine {
         pipeline.view.watch.off_reason = watch_off;
         Ok(Self {
             watch,
+            fault_inbox: None,
             thrust_now_pct: [0.0; 3],
             vehicle_changed_noise: None,
             core,
@@ -362,6 +365,11 @@ impl Engine {
     }
 
     /// [`RuntimeCommand::AutopilotModel`].
+    /// The simulated vehicle's fault inbox (RuntimeCommand::InjectFault goes there).
+    pub fn attach_fault_inbox(&mut self, inbox: rov_vehicle::runner::FaultInbox) {
+        self.fault_inbox = Some(inbox);
+    }
+
     /// Runs the model watch inline (virtual time: no thread, same alerts).
     pub fn watch_inline(&mut self) {
         if let Some(w) = &mut self.watch {
@@ -634,6 +642,32 @@ impl Engine {
                 self.autopilot_model(link, model, confirmed, now_us);
             }
             RuntimeCommand::InjectStall(d) => return Followup::Stall(d),
+            RuntimeCommand::InjectFault(spec) => match &self.fault_inbox {
+                Some(inbox) => {
+                    // The control thread never waits on the vehicle: a busy lock is
+                    // said, and the pilot presses again.
+                    let taken = inbox.try_lock().map(|mut v| v.push(spec)).is_ok();
+                    if taken {
+                        self.event(
+                            now_us,
+                            "fault_injected",
+                            Severity::Warning,
+                            format!("simulated fault injected: {spec}"),
+                        );
+                    } else {
+                        self.refuse(
+                            now_us,
+                            "inject a fault",
+                            "the vehicle was busy; try again".into(),
+                        );
+                    }
+                }
+                None => self.refuse(
+                    now_us,
+                    "inject a fault",
+                    "fault injection needs the built-in simulated vehicle".into(),
+                ),
+            },
             RuntimeCommand::Shutdown => return Followup::Shutdown,
         }
         Followup::None

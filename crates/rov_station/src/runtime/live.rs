@@ -82,12 +82,15 @@ pub(crate) fn start(cfg: RuntimeConfig, models: ModelSet) -> Result<StationHandl
 
     // Transport (and the simulated vehicle on the other end in sim mode).
     let mut truth_tap: Option<TruthTap> = None;
+    let mut fault_inbox: Option<rov_vehicle::runner::FaultInbox> = None;
     let (transport, source, vehicle): (Box<dyn Transport>, Source, Option<VehicleRunner>) =
         match &cfg.connection {
             Connection::Sim => {
                 let (station_end, vehicle_end) = memory_pair();
                 let vehicle = crate::runtime::sim::sim_vehicle(&cfg)?;
                 let tap = TruthTap::default();
+                let inbox = rov_vehicle::runner::FaultInbox::default();
+                fault_inbox = Some(std::sync::Arc::clone(&inbox));
                 // The simulated vehicle stands for hardware at the other end of the
                 // tether: its thread gets the link threads' priority (a thread inherits
                 // its creator's scheduling, so it is created from a raised helper), or a
@@ -99,11 +102,12 @@ pub(crate) fn start(cfg: RuntimeConfig, models: ModelSet) -> Result<StationHandl
                     move || {
                         let g = crate::runtime::priority::raise_current(RT_LINK);
                         lock(&shared.priorities).push(("station-vehicle (sim)".into(), g));
-                        let runner = rov_vehicle::runner::spawn_with_truth(
+                        let runner = rov_vehicle::runner::spawn_with_taps(
                             vehicle,
                             Box::new(vehicle_end),
                             RunnerConfig::default(),
                             t,
+                            inbox,
                         );
                         let _ = back.send(runner);
                     }
@@ -136,6 +140,9 @@ pub(crate) fn start(cfg: RuntimeConfig, models: ModelSet) -> Result<StationHandl
             .map(|tap| sim_pose(tap, Arc::clone(&shared))),
     ));
     engine.attach_video(Arc::clone(&video));
+    if let Some(inbox) = fault_inbox {
+        engine.attach_fault_inbox(inbox);
+    }
     if let Some(tap) = truth_tap {
         engine.attach_truth_tap(tap);
     }

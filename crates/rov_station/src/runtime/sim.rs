@@ -88,6 +88,8 @@ pub(crate) fn sim_vehicle(cfg: &RuntimeConfig) -> Result<Vehicle, rov_vehicle::V
 pub struct VirtualStation {
     sim: SimLink,
     app: App,
+    /// Faults the Settings page injects (taken before each advance).
+    faults: rov_vehicle::runner::FaultInbox,
 }
 
 impl std::fmt::Debug for VirtualStation {
@@ -131,6 +133,8 @@ impl VirtualStation {
         let mut engine = Engine::new(cfg, models, Arc::clone(&shared), Source::Sim)?;
         engine.attach_video(Arc::clone(&video));
         engine.watch_inline();
+        let inbox = rov_vehicle::runner::FaultInbox::default();
+        engine.attach_fault_inbox(Arc::clone(&inbox));
         let app = App {
             engine,
             video: Arc::clone(&video),
@@ -140,7 +144,11 @@ impl VirtualStation {
         };
         let sim = SimLink::new(link, vehicle, period_us);
         Ok((
-            Self { sim, app },
+            Self {
+                sim,
+                app,
+                faults: inbox,
+            },
             StationHandle::new(shared, tx, Vec::new()).with_video(video),
         ))
     }
@@ -160,6 +168,7 @@ impl VirtualStation {
         if self.app.stopped || t_us <= self.sim.now_us() {
             return Ok(());
         }
+        rov_vehicle::runner::take_faults(&mut self.sim.vehicle, &self.faults);
         self.sim.run_until(t_us, &mut self.app)?;
         Ok(())
     }

@@ -765,3 +765,89 @@ fn stopping_a_recording_with_video_never_holds_up_the_control_loop() {
     assert!(s.count("/camera/video") >= 10);
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// Issue 23: a fault injected from the Settings page (RuntimeCommand::InjectFault) acts
+/// on the simulated vehicle, and the station's own watch raises VEHICLE CHANGED with the
+/// cause in words, an event, and nothing before the fault.
+#[test]
+fn an_injected_compass_fault_raises_vehicle_changed_with_its_cause() {
+    let _serial = serial();
+    let (mut st, h) = virtual_armed();
+    h.send(StationCommand::Mode(ModeCommand::SetDepth { depth_m: 3.0 }));
+    h.send(StationCommand::Mode(ModeCommand::SetHeading {
+        heading_deg: 90.0,
+    }));
+    // Under way with turns, so every channel moves (the watch learns its floor in 60 s).
+    let fly = |st: &mut VirtualStation, from_s: f64, to_s: f64| {
+        let mut t = from_s;
+        while t < to_s {
+            let surge = if (t / 20.0).floor() as i64 % 2 == 0 {
+                0.8
+            } else {
+                0.5
+            };
+            h.send(StationCommand::Sticks(PilotInput {
+                surge,
+                yaw: 0.0,
+                vertical: 0.0,
+            }));
+            if (t % 20.0) < 0.05 {
+                h.send(StationCommand::Mode(ModeCommand::StepHeading {
+                    delta_deg: 45.0,
+                }));
+            }
+            st.advance(0.05).unwrap();
+            t += 0.05;
+        }
+    };
+    fly(&mut st, 0.0, 150.0);
+    let v = h.view();
+    assert!(v.watch.running, "{:?}", v.watch);
+    assert!(v.watch.alerts.is_empty(), "{:?}", v.watch.alerts);
+    assert!(!v.alarms.iter().any(|a| a.kind == AlarmKind::VehicleChanged));
+    h.command(RuntimeCommand::InjectFault(
+        rov_sim::FaultSpec::parse("compass:30@0").unwrap(),
+    ));
+    fly(&mut st, 150.0, 170.0);
+    let v = h.view();
+    let alarm = v
+        .alarms
+        .iter()
+        .find(|a| a.kind == AlarmKind::VehicleChanged)
+        .expect("VEHICLE CHANGED");
+    assert!(alarm.active && !alarm.acknowledged);
+    let change = v
+        .watch
+        .alerts
+        .iter()
+        .find(|a| a.kind == "change")
+        .expect("a change alert");
+    assert_eq!(change.channel, "heading");
+    assert!(
+        change.words.contains("COMPASS OFF +30")
+            || change.words.contains("COMPASS OFF +29")
+            || change.words.contains("COMPASS OFF +31"),
+        "{change:?}"
+    );
+    assert!(
+        v.events
+            .iter()
+            .any(|e| e.contains("simulated fault injected: compass")),
+        "{:?}",
+        v.events
+    );
+    assert!(
+        v.events.iter().any(|e| e.contains("COMPASS OFF")),
+        "{:?}",
+        v.events
+    );
+    // The vehicle stays changed: acknowledged, it stays listed.
+    h.command(RuntimeCommand::AckAlarm(None));
+    st.advance(0.1).unwrap();
+    let v = h.view();
+    assert!(
+        v.alarms
+            .iter()
+            .any(|a| a.kind == AlarmKind::VehicleChanged && a.acknowledged)
+    );
+}
