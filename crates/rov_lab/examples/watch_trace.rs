@@ -35,7 +35,18 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut shown = false;
     for r in &series.rows {
         if !shown && !w.learning() {
-            println!("BASE {:?}", w.noise_floors());
+            for (i, n) in w.noise_floors().iter().enumerate() {
+                if let Some(n) = n {
+                    println!(
+                        "BASE {i} mu {:?} s0 {:.4} kappa {:.3} floor {:.4} ratio {:.1}",
+                        n.mu,
+                        n.s0,
+                        n.kappa,
+                        n.sensor_floor,
+                        n.s0 / n.sensor_floor
+                    );
+                }
+            }
             shown = true;
         }
         for a in w.push(r) {

@@ -72,7 +72,7 @@ pub const CHANNELS: [Channel; 4] = [
 ];
 
 /// Sub-windows per window.
-pub(crate) const SUB: usize = 3;
+pub const SUB: usize = 3;
 
 /// Settings of the watch (defaults documented per field).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -176,6 +176,19 @@ impl Alert {
             ),
         }
     }
+}
+
+/// A channel's learned noise floor (see the module docs, step 2).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct NoiseFloor {
+    /// Offset per sub-window (the model's steady error).
+    pub mu: [f64; SUB],
+    /// Floor at rest, in the channel's unit.
+    pub s0: f64,
+    /// Relative error per unit of predicted motion.
+    pub kappa: f64,
+    /// The sensor's own noise floor (the least s₀).
+    pub sensor_floor: f64,
 }
 
 /// One evaluation as the watch saw it (for plots and for tuning): per channel, the
@@ -320,8 +333,15 @@ impl Watch {
 
     /// The learned noise floor per channel (offsets μ per sub-window, floor s₀, relative
     /// error κ, the sensor's own floor), `None` before it is learned or where the channel is absent.
-    pub fn noise_floors(&self) -> [Option<([f64; SUB], f64, f64, f64)>; 4] {
-        std::array::from_fn(|i| self.noise[i].map(|n| (n.mu, n.s0, n.kappa, n.sensor_floor)))
+    pub fn noise_floors(&self) -> [Option<NoiseFloor>; 4] {
+        std::array::from_fn(|i| {
+            self.noise[i].map(|n| NoiseFloor {
+                mu: n.mu,
+                s0: n.s0,
+                kappa: n.kappa,
+                sensor_floor: n.sensor_floor,
+            })
+        })
     }
 
     /// Counters.
