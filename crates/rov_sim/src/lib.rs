@@ -19,11 +19,13 @@
 pub mod error;
 pub mod paper;
 pub mod reference;
+pub mod seabed;
 pub mod series;
 pub mod simulator;
 
 pub use error::SimError;
 pub use paper::{Experiment, experiments};
+pub use seabed::{Seabed, WaterSurface};
 pub use series::{
     Schedule, ScheduleStep, predict_inputs, predict_measured, predict_schedule, run_schedule,
     run_schedule_on,
