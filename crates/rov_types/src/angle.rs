@@ -62,7 +62,8 @@ pub fn round_heading_deg(heading_deg: f64, step_deg: f64) -> f64 {
     } else {
         1.0
     };
-    wrap_deg_360((heading_deg / step).round() * step)
+    // `+ 0.0` turns a −0 (from rounding −0.4) into 0, which prints as "000", not "-00".
+    wrap_deg_360((heading_deg / step).round() * step) + 0.0
 }
 
 /// A heading as the three-digit compass text the station shows ("000".."359"), from
