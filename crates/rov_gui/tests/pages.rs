@@ -36,10 +36,13 @@ fn alarm_limits_set_in_settings_warn_then_alarm_and_acknowledge() {
     assert_eq!(r.view().alarm_limits.depth_m.alarm, 2.2);
     r.harness.state_mut().set_tab(Tab::Fly);
     r.run(FRAME_S);
-    // Hold depth and go 2 m deeper: first the warning, then the alarm.
+    // Hold depth and go 3 m deeper: first the warning, then the alarm. The simulated
+    // vehicle starts floating at the surface (0.11 m), so the setpoint ends at 3.1 m,
+    // past both limits (two steps, 2.1 m, would stop short of the 2.2 m alarm).
     r.click_nth("OFF", 0);
-    r.click_nth("+1", 0);
-    r.click_nth("+1", 0);
+    for _ in 0..3 {
+        r.click_nth("+1", 0);
+    }
     let mut saw_warning = false;
     for _ in 0..200 {
         r.run(0.1);
