@@ -936,20 +936,9 @@ impl StationApp {
                         );
                     }
                     for a in &alarms {
-                        let state = if a.active { "" } else { " (cleared)" };
-                        let level = match a.level {
-                            AlarmLevel::Alarm => "",
-                            AlarmLevel::Warning => " warning",
-                        };
-                        let unit = a.kind.unit();
-                        let value = match (a.value, a.limit) {
-                            (Some(v), Some(l)) => {
-                                format!(" {v:.1} {unit} (limit {l:.1} {unit})")
-                            }
-                            (Some(v), None) => format!(" {v:.1} {unit}"),
-                            _ => String::new(),
-                        };
-                        let text = format!("{}{level}{value}{state}", a.kind.text());
+                        // The station's wording: every number with its unit, and where
+                        // a held level lets go (issue 25 item 9).
+                        let text = a.describe();
                         let color = if a.acknowledged {
                             Color32::from_gray(200)
                         } else {

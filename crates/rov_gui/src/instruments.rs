@@ -9,6 +9,8 @@ use egui::{
     Align2, Color32, FontId, Pos2, Rect, Sense, Shape, Stroke, StrokeKind, Ui, Vec2, pos2, vec2,
 };
 
+use rov_types::angle::compass_text;
+
 use crate::theme;
 
 /// Whether instruments are drawn as an overlay on a picture (translucent backgrounds);
@@ -397,7 +399,8 @@ impl HeadingTape {
         let label = a11y("heading tape", self.stale, || {
             format!(
                 "{}, turns {:+.1}",
-                fmt_opt(self.heading_deg, 0, "°"),
+                self.heading_deg
+                    .map_or("---".into(), |h| format!("{}°", compass_text(h))),
                 self.turns
             )
         });
@@ -462,13 +465,12 @@ impl HeadingTape {
             ));
             // The setpoint's number sits in the top row, above the numerals (it covered
             // them, issue 25 item 4), moved beside the heading box when it would hide it.
-            let spi = (sp.round() as i64).rem_euclid(360);
             let plate = setpoint_plate(tape, x);
             painter.rect_filled(plate, 2.0, Color32::from_black_alpha(220));
             painter.text(
                 plate.center(),
                 Align2::CENTER_CENTER,
-                format!("{spi:03}"),
+                compass_text(sp),
                 theme::small(),
                 color,
             );
@@ -490,9 +492,7 @@ impl HeadingTape {
         let hv = self
             .heading_deg
             .filter(|_| !self.stale)
-            .map_or("---".into(), |x| {
-                format!("{:03}°", (x.round() as i64).rem_euclid(360))
-            });
+            .map_or("---".into(), |x| format!("{}°", compass_text(x)));
         painter.text(
             boxr.center(),
             Align2::CENTER_CENTER,
