@@ -192,6 +192,8 @@ pub struct StationApp {
     pub(crate) video_pane: crate::video::VideoPane,
     /// The `[video]` settings being edited (Settings tab, Connection tab's devices).
     pub(crate) video_settings: rov_station::runtime::video::VideoSettings,
+    /// The Settings tab's simulated-fault form (issue 23).
+    pub(crate) fault_form: crate::watch_page::FaultForm,
     /// The Model lab's camera frame.
     pub(crate) lab_video: crate::lab_video::LabVideo,
     /// Capture devices found (Connection tab), or why the listing failed.
@@ -275,6 +277,7 @@ impl StationApp {
             record_offer: false,
             video_pane: crate::video::VideoPane::default(),
             video_settings: rov_station::runtime::video::VideoSettings::default(),
+            fault_form: crate::watch_page::FaultForm::default(),
             capture_devices: None,
             lab_video: crate::lab_video::LabVideo::default(),
             layout: crate::layout::LayoutAudit::default(),
@@ -888,6 +891,7 @@ impl StationApp {
         // least urgent.
         alarms.sort_by_key(|a| (a.acknowledged, a.level != AlarmLevel::Alarm));
         let failsafe = self.live_view.snapshot.alarm.clone();
+        let v_watch = self.live_view.watch.clone();
         let unacked = |lvl: AlarmLevel| alarms.iter().any(|a| !a.acknowledged && a.level == lvl);
         let (fill, title) = if alarms.is_empty() && failsafe.is_none() {
             (Color32::from_rgb(30, 34, 40), "NO ALARMS")
@@ -936,20 +940,15 @@ impl StationApp {
                         );
                     }
                     for a in &alarms {
-                        let state = if a.active { "" } else { " (cleared)" };
-                        let level = match a.level {
-                            AlarmLevel::Alarm => "",
-                            AlarmLevel::Warning => " warning",
-                        };
-                        let unit = a.kind.unit();
-                        let value = match (a.value, a.limit) {
-                            (Some(v), Some(l)) => {
-                                format!(" {v:.1} {unit} (limit {l:.1} {unit})")
-                            }
-                            (Some(v), None) => format!(" {v:.1} {unit}"),
-                            _ => String::new(),
-                        };
-                        let text = format!("{}{level}{value}{state}", a.kind.text());
+                        // The station's wording: every number with its unit, and where
+                        // a held level lets go (issue 25 item 9).
+                        let mut text = a.describe();
+                        // The model watch's finding in words (issue 23).
+                        if a.kind == AlarmKind::VehicleChanged
+                            && let Some(w) = v_watch.latest_change()
+                        {
+                            text = format!("{text}: {w}");
+                        }
                         let color = if a.acknowledged {
                             Color32::from_gray(200)
                         } else {

@@ -94,14 +94,6 @@ pub(crate) fn dive_panel(app: &mut StationApp, ui: &mut Ui) {
     });
 }
 
-/// A compass reading in whole degrees, 000–359: rounded first, then wrapped, so 359.6°
-/// reads 000, never 360 (issue 25 item 11).
-pub(crate) fn compass_deg(heading_deg: f64) -> u16 {
-    let whole = rov_types::angle::wrap_deg_360(heading_deg.round());
-    // wrap_deg_360 gives [0, 360); a whole number in it fits u16.
-    (whole as u16) % 360
-}
-
 fn status(s: ItemStatus) -> (egui::Color32, &'static str) {
     match s {
         ItemStatus::Pending => (theme::DIM, "to do"),
@@ -146,9 +138,10 @@ pub(crate) fn predive_tab(app: &mut StationApp, ui: &mut Ui) {
                         .on_hover_text(detail);
                     match item {
                         rov_station::runtime::dive::Item::Compass => {
+                            // 000–359, never 360 (issue 25 item 11).
                             let h = v.snapshot.heading_deg.map_or_else(
                                 || "---".into(),
-                                |h| format!("{:03}°", compass_deg(h)),
+                                |h| format!("{}°", rov_types::angle::compass_text(h)),
                             );
                             ui.horizontal(|ui| {
                                 ui.label(format!(
@@ -292,23 +285,4 @@ fn thruster_controls(
             .small()
             .color(theme::DIM),
     );
-}
-
-#[cfg(test)]
-mod tests {
-    use super::compass_deg;
-
-    /// Issue 25 item 11: the compass reads 000–359, never 360.
-    #[test]
-    fn the_compass_reads_000_to_359() {
-        assert_eq!(compass_deg(359.6), 0);
-        assert_eq!(compass_deg(359.4), 359);
-        assert_eq!(compass_deg(-0.4), 0);
-        assert_eq!(compass_deg(-0.6), 359);
-        assert_eq!(compass_deg(720.2), 0);
-        assert_eq!(compass_deg(90.5), 91);
-        for k in -7200..7200 {
-            assert!(compass_deg(f64::from(k) * 0.1) < 360);
-        }
-    }
 }

@@ -9,6 +9,8 @@ use egui::{
     Align2, Color32, FontId, Pos2, Rect, Sense, Shape, Stroke, StrokeKind, Ui, Vec2, pos2, vec2,
 };
 
+use rov_types::angle::compass_text;
+
 use crate::theme;
 
 /// Whether instruments are drawn as an overlay on a picture (translucent backgrounds);
@@ -123,13 +125,9 @@ impl DepthTape {
         resp.widget_info(|| egui::WidgetInfo::labeled(egui::Role::Slider, true, &label));
         let rect = resp.rect;
         frame(ui, rect);
-        let bar_w = 16.0;
-        let tape = Rect::from_min_max(
-            rect.min + vec2(2.0, 44.0),
-            pos2(rect.max.x - bar_w - 8.0, rect.max.y - 18.0),
-        );
+        let tape = depth_scale(rect);
         let bar = Rect::from_min_max(
-            pos2(rect.max.x - bar_w - 4.0, tape.min.y),
+            pos2(rect.max.x - DEPTH_BAR_W - 4.0, tape.min.y),
             pos2(rect.max.x - 4.0, tape.max.y),
         );
         // Display unit: k display units per metre.
@@ -212,8 +210,7 @@ impl DepthTape {
             }
         }
         // Current depth box, and the vertical speed under it.
-        let c = tape.center();
-        let boxr = Rect::from_center_size(pos2(c.x + 4.0, c.y), vec2(tape.width() - 8.0, 26.0));
+        let boxr = depth_box(tape);
         painter.rect_filled(boxr, 3.0, Color32::BLACK);
         painter.rect_stroke(
             boxr,
@@ -274,9 +271,13 @@ impl DepthTape {
                 [pos2(tape.min.x, y), pos2(x, y)],
                 Stroke::new(1.0, color.gamma_multiply(0.6)),
             );
+            // The number on a plate beside the bug, moved off the value box when the
+            // setpoint is near the depth (it covered the box's top, issue 25 item 4).
+            let plate = depth_setpoint_plate(tape, y);
+            painter.rect_filled(plate, 2.0, Color32::from_black_alpha(200));
             painter.text(
-                pos2(x - 14.0, y - 9.0),
-                Align2::RIGHT_BOTTOM,
+                pos2(plate.max.x - 2.0, plate.center().y),
+                Align2::RIGHT_CENTER,
                 format!("{:.1}", sp * k),
                 theme::small(),
                 color,
@@ -315,6 +316,54 @@ impl DepthTape {
         }
         None
     }
+}
+
+/// Width of the depth tape's vertical-thrust bar, points.
+const DEPTH_BAR_W: f32 = 16.0;
+
+/// The scale of a depth tape drawn in `rect`: under the header and vertical-speed rows,
+/// left of the vertical-thrust bar.
+#[must_use]
+pub fn depth_scale(rect: Rect) -> Rect {
+    Rect::from_min_max(
+        rect.min + vec2(2.0, 44.0),
+        pos2(rect.max.x - DEPTH_BAR_W - 8.0, rect.max.y - 18.0),
+    )
+}
+
+/// The current-depth value box at the middle of the depth tape's scale `tape`.
+#[must_use]
+pub fn depth_box(tape: Rect) -> Rect {
+    let c = tape.center();
+    Rect::from_center_size(pos2(c.x + 4.0, c.y), vec2(tape.width() - 8.0, 26.0))
+}
+
+/// The depth setpoint's number plate for a setpoint bug at height `y` on the scale
+/// `tape`: just above the bug's line, left of its arrow; when that would cover the value
+/// box, above the box whichever side of the middle the bug is (a held depth jitters about
+/// its setpoint: the plate must not hop across the box), below it only on a scale too
+/// short for that; always on the scale.
+#[must_use]
+pub fn depth_setpoint_plate(tape: Rect, y: f32) -> Rect {
+    let size = vec2(40.0, 14.0);
+    let right = tape.max.x - 14.0;
+    let b = depth_box(tape);
+    let at = |bottom: f32| Rect::from_min_size(pos2(right - size.x, bottom - size.y), size);
+    let mut r = at(y - 3.0);
+    if r.intersects(b.expand(1.0)) {
+        r = at(b.min.y - 3.0);
+        if r.min.y < tape.min.y {
+            r = at(b.max.y + 3.0 + size.y);
+        }
+    }
+    let dy = if r.min.y < tape.min.y {
+        tape.min.y - r.min.y
+    } else if r.max.y > tape.max.y {
+        tape.max.y - r.max.y
+    } else {
+        0.0
+    };
+    r.translate(vec2(0.0, dy))
 }
 
 /// "descending 0.25 m/s", "ascending ...", "level" or "vertical speed unknown".
@@ -397,7 +446,8 @@ impl HeadingTape {
         let label = a11y("heading tape", self.stale, || {
             format!(
                 "{}, turns {:+.1}",
-                fmt_opt(self.heading_deg, 0, "°"),
+                self.heading_deg
+                    .map_or("---".into(), |h| format!("{}°", compass_text(h))),
                 self.turns
             )
         });
@@ -462,13 +512,12 @@ impl HeadingTape {
             ));
             // The setpoint's number sits in the top row, above the numerals (it covered
             // them, issue 25 item 4), moved beside the heading box when it would hide it.
-            let spi = (sp.round() as i64).rem_euclid(360);
             let plate = setpoint_plate(tape, x);
             painter.rect_filled(plate, 2.0, Color32::from_black_alpha(220));
             painter.text(
                 plate.center(),
                 Align2::CENTER_CENTER,
-                format!("{spi:03}"),
+                compass_text(sp),
                 theme::small(),
                 color,
             );
@@ -490,9 +539,7 @@ impl HeadingTape {
         let hv = self
             .heading_deg
             .filter(|_| !self.stale)
-            .map_or("---".into(), |x| {
-                format!("{:03}°", (x.round() as i64).rem_euclid(360))
-            });
+            .map_or("---".into(), |x| format!("{}°", compass_text(x)));
         painter.text(
             boxr.center(),
             Align2::CENTER_CENTER,

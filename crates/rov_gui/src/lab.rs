@@ -981,7 +981,7 @@ fn comparison_plots(ui: &mut Ui, c: Option<&Comparison>, view_h: f32) {
             plot = plot.invert_y(true);
         }
         if ch.name == "heading" {
-            plot = plot.y_axis_formatter(|m, _| format!("{:.0}", m.value.rem_euclid(360.0)));
+            plot = plot.y_axis_formatter(crate::plots::heading_tick_label);
         }
         plot.show(ui, |p| {
             for seg in meas {

@@ -37,6 +37,7 @@ pub mod settings;
 pub mod theme;
 pub mod video;
 mod video_settings;
+mod watch_page;
 
 use std::path::{Path, PathBuf};
 use std::sync::mpsc::{Receiver, channel};
@@ -48,10 +49,16 @@ pub use fly::MainView;
 /// The keys the F1 window lists (for tests and documentation).
 #[must_use]
 pub fn help_keys() -> Vec<&'static str> {
+    help_lines().into_iter().map(|(k, _)| k).collect()
+}
+
+/// The F1 window's keyboard lines: (keys, what they do).
+#[must_use]
+pub fn help_lines() -> Vec<(&'static str, &'static str)> {
     help::KEYS
         .iter()
         .chain(&pilot_keys::KEYS)
-        .map(|(k, _)| *k)
+        .copied()
         .collect()
 }
 use rov_station::runtime::{Connection, Runtime, RuntimeConfig, StationHandle};

@@ -5,6 +5,7 @@ use egui::{Color32, RichText, Ui, vec2};
 use rov_control::{Axis, ModeCommand, ModelChoice};
 use rov_station::StationCommand;
 use rov_station::runtime::{AxisModeView, CameraCommand, PadStatus, RuntimeCommand, StationView};
+use rov_types::angle::compass_text;
 
 use crate::app::StationApp;
 use crate::instruments::{dot_label, group_title, stick_bar};
@@ -65,9 +66,9 @@ fn axis_row(app: &mut StationApp, ui: &mut Ui, axis: Axis, v: &StationView, repl
         }
         let sp = match axis {
             Axis::Depth => crate::settings::depth_text(av.setpoint, app.station.depth_unit, 2),
-            Axis::Heading => av.setpoint.map_or("---".into(), |x| {
-                format!("{:03}°", (x.round() as i64).rem_euclid(360))
-            }),
+            Axis::Heading => av
+                .setpoint
+                .map_or("---".into(), |x| format!("{}°", compass_text(x))),
         };
         ui.label(
             RichText::new(sp)

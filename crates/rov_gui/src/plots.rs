@@ -216,7 +216,7 @@ pub fn plot(ui: &mut Ui, id: &str, h: &History, series: &[Series], t0: f64, t1: 
         if let Some(r) = wrap_ref {
             plot = plot.include_y(r - 10.0).include_y(r + 10.0);
         }
-        plot = plot.y_axis_formatter(|m, _| format!("{:.0}", m.value.rem_euclid(360.0)));
+        plot = plot.y_axis_formatter(heading_tick_label);
     } else {
         // Attitude: at least ±5°, so sensor noise does not fill the plot.
         plot = plot.include_y(-5.0).include_y(5.0);
@@ -385,14 +385,45 @@ fn y_grid(input: GridInput) -> Vec<GridMark> {
         .collect()
 }
 
+/// The decimals that write every multiple of `step` exactly: 1 → 0, 0.5 → 1, 2.5 → 1,
+/// 0.25 → 2 (at most 6). egui_plot's default rounds `-log10(step)`, which gives 0.5 and
+/// 2.5 no decimal: a depth axis read "0, 0, 1, 2" for ticks 0, 0.5, 1, 1.5.
+#[must_use]
+pub fn tick_decimals(step: f64) -> usize {
+    if !(step.is_finite() && step > 0.0) {
+        return 0;
+    }
+    (0..=6usize)
+        .find(|&d| {
+            let s = step * 10f64.powi(d as i32);
+            (s - s.round()).abs() < 1e-6 * s.max(1.0)
+        })
+        .unwrap_or(6)
+}
+
+/// A Y tick's label: `value` with the decimals of its grid `step` ("-0.5", "2.5"), never
+/// "-0".
+#[must_use]
+pub fn tick_label(value: f64, step: f64) -> String {
+    let d = tick_decimals(step);
+    // `+ 0.0` turns a −0 into 0.
+    format!("{:.d$}", value + 0.0)
+}
+
+/// A heading tick's label: the compass angle in [0, 360) with the decimals of its step.
+pub(crate) fn heading_tick_label(m: GridMark, _range: &std::ops::RangeInclusive<f64>) -> String {
+    tick_label(rov_types::angle::wrap_deg_360(m.value), m.step_size)
+}
+
 /// A plot with 3–5 labelled Y ticks: the grid of [`y_ticks`] and labels drawn down to
 /// 12 px apart (egui_plot's default hides labels closer than 20 px, which left short
-/// plots with one label or none).
+/// plots with one label or none), each written with the decimals its step needs.
 pub fn with_y_ticks(plot: Plot<'_>) -> Plot<'_> {
     plot.custom_y_axes(vec![
         AxisHints::new_y()
             .label_spacing(10.0..=12.0)
-            .tick_label_font(egui::FontId::proportional(11.0)),
+            .tick_label_font(egui::FontId::proportional(11.0))
+            .formatter(|m, _| tick_label(m.value, m.step_size)),
     ])
     .y_grid_spacer(y_grid)
 }
@@ -454,5 +485,38 @@ mod tick_tests {
         }
         assert!(y_ticks(1.0, 1.0).1.is_empty());
         assert!(y_ticks(f64::NAN, 1.0).1.is_empty());
+    }
+
+    /// The labels of a plot's ticks are all different: a 0.5 m step wrote 0, 0.5, 1,
+    /// 1.5 as "0, 0, 1, 2" (egui_plot's decimals from the rounded log of the step).
+    #[test]
+    fn tick_labels_are_distinct_and_exact() {
+        use super::{tick_decimals, tick_label};
+        assert_eq!(tick_label(0.5, 0.5), "0.5");
+        assert_eq!(tick_label(-0.5, 0.5), "-0.5");
+        assert_eq!(tick_label(1.5, 0.5), "1.5");
+        assert_eq!(tick_label(2.5, 2.5), "2.5");
+        assert_eq!(tick_label(0.25, 0.25), "0.25");
+        assert_eq!(tick_label(3.0, 1.0), "3");
+        assert_eq!(tick_label(-0.0, 1.0), "0");
+        assert_eq!(tick_label(350.0, 5.0), "350");
+        assert_eq!(tick_decimals(0.0), 0);
+        assert_eq!(tick_decimals(f64::NAN), 0);
+        let mut span = 0.01;
+        while span < 1000.0 {
+            for off in [-0.37, 0.0, 0.23, 3.1] {
+                let lo = off * span;
+                let (step, t) = y_ticks(lo, lo + span);
+                let labels: Vec<String> = t.iter().map(|&v| tick_label(v, step)).collect();
+                let mut uniq = labels.clone();
+                uniq.dedup();
+                assert_eq!(uniq, labels, "span {span} at {lo}: step {step}");
+                for (v, l) in t.iter().zip(&labels) {
+                    let back: f64 = l.parse().unwrap();
+                    assert!((back - v).abs() < 1e-9 * v.abs().max(1.0), "{v} -> {l}");
+                }
+            }
+            span *= 1.07;
+        }
     }
 }

@@ -239,6 +239,8 @@ pub(crate) fn settings_tab(app: &mut StationApp, ui: &mut Ui) {
             });
             right.separator();
             crate::foxglove_live::section(app, right);
+            right.separator();
+            crate::watch_page::section(app, right);
         });
         if choose_folder && let Some(d) = app.backend.pick_folder("Recordings folder") {
             app.station.recordings_dir = d;

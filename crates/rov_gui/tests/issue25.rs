@@ -232,8 +232,69 @@ fn item4_hud_parts_top_bar_and_tape_labels_do_not_overlap() {
             .next()
             .is_some();
         assert!(widest_ok, "{w}x{h}: K missing from the help");
+        // The keyboard column ends before the gamepad column starts (its long lines ran
+        // into the gamepad's at 1024×600): every description, found in its key's row.
+        let pad_left = r
+            .harness
+            .query_all_by_label_contains("surge: ")
+            .map(|n| n.rect().min.x)
+            .fold(f32::INFINITY, f32::min);
+        assert!(pad_left.is_finite(), "{w}x{h}: no gamepad column");
+        let mut checked = 0;
+        for (k, what) in rov_gui::help_lines() {
+            let keys: Vec<Rect> = r.harness.query_all_by_label(k).map(|n| n.rect()).collect();
+            for d in r.harness.query_all_by_label(what).map(|n| n.rect()) {
+                let in_row = keys
+                    .iter()
+                    .any(|kr| (kr.center().y - d.center().y).abs() < 4.0 && kr.max.x <= d.min.x);
+                if in_row {
+                    checked += 1;
+                    assert!(
+                        d.max.x <= pad_left,
+                        "{w}x{h}: {what:?} {d:?} runs into the gamepad column at x {pad_left}"
+                    );
+                }
+            }
+        }
+        assert!(
+            checked >= rov_gui::help_lines().len() - 2,
+            "{w}x{h}: only {checked} keyboard lines found"
+        );
         if w == 1024.0 {
             r.snapshot("issue25_help_1024x600");
+        }
+    }
+}
+
+/// Item 4: the depth setpoint's number never covers the depth value box, on the
+/// instrument layout's tape and on the HUD's, at every setpoint position, at the three
+/// sizes (it sat on the box's top edge when the setpoint was near the depth).
+#[test]
+fn item4_depth_setpoint_label_clear_of_the_value_box() {
+    use rov_gui::instruments::{depth_box, depth_scale, depth_setpoint_plate};
+    for (w, h) in SIZES {
+        let mut r = rig_sized(&format!("i25_dsp_{w}.mcap"), vec2(w, h));
+        r.run(1.0);
+        let tape = r.harness.get_by_label_contains("depth tape").rect();
+        let main = r.harness.state().main_view_rect().expect("fly main area");
+        let hud = rov_gui::fly::hud_layout(main).left;
+        for (name, rect) in [("instruments", tape), ("hud", hud)] {
+            let scale = depth_scale(rect);
+            let vbox = depth_box(scale);
+            assert!(scale.contains_rect(vbox), "{w}x{h} {name}: box {vbox:?}");
+            let mut y = scale.min.y + 6.0;
+            while y <= scale.max.y - 6.0 {
+                let p = depth_setpoint_plate(scale, y);
+                assert!(
+                    !p.intersects(vbox),
+                    "{w}x{h} {name}: plate {p:?} at y {y} on the box {vbox:?}"
+                );
+                assert!(
+                    scale.contains_rect(p),
+                    "{w}x{h} {name}: plate {p:?} off the scale {scale:?}"
+                );
+                y += 1.0;
+            }
         }
     }
 }

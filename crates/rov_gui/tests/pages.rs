@@ -36,10 +36,13 @@ fn alarm_limits_set_in_settings_warn_then_alarm_and_acknowledge() {
     assert_eq!(r.view().alarm_limits.depth_m.alarm, 2.2);
     r.harness.state_mut().set_tab(Tab::Fly);
     r.run(FRAME_S);
-    // Hold depth and go 2 m deeper: first the warning, then the alarm.
+    // Hold depth and go 3 m deeper: first the warning, then the alarm. The simulated
+    // vehicle starts floating at the surface (0.11 m), so the setpoint ends at 3.1 m,
+    // past both limits (two steps, 2.1 m, would stop short of the 2.2 m alarm).
     r.click_nth("OFF", 0);
-    r.click_nth("+1", 0);
-    r.click_nth("+1", 0);
+    for _ in 0..3 {
+        r.click_nth("+1", 0);
+    }
     let mut saw_warning = false;
     for _ in 0..200 {
         r.run(0.1);
@@ -467,4 +470,50 @@ fn foxglove_live_serves_from_the_settings_tab_and_names_a_bad_address() {
     assert!(r.harness.state().foxglove_status().is_none());
     drop(client);
     std::net::TcpListener::bind(st.addr).unwrap();
+}
+
+/// Issue 23: the Settings tab's model watch and fault form. A compass fault injected from
+/// the form raises VEHICLE CHANGED in the alarm strip with the cause in words; the
+/// section lists it.
+#[test]
+fn an_injected_fault_shows_in_the_alarm_strip_in_words() {
+    let mut r = rig("watch.mcap");
+    r.run(2.0);
+    r.arm();
+    // At rest for the watch's first minute (it learns its floor from the readings).
+    r.run(80.0);
+    assert!(r.view().watch.running, "{:?}", r.view().watch);
+    assert!(
+        r.view().watch.alerts.is_empty(),
+        "{:?}",
+        r.view().watch.alerts
+    );
+    r.harness.state_mut().set_tab(Tab::Settings);
+    r.run(FRAME_S);
+    r.click_containing("Model watch: watching");
+    // The form's kind: thrust-loss by default; choose compass.
+    r.click("Fault");
+    r.click("compass");
+    r.click_containing("Inject now (compass:25@0)");
+    r.run(10.0);
+    let v = r.view();
+    assert!(
+        v.alarms
+            .iter()
+            .any(|a| a.kind == AlarmKind::VehicleChanged && a.level == AlarmLevel::Warning),
+        "{:?}",
+        v.alarms
+    );
+    let strip = r.labels_containing("VEHICLE CHANGED");
+    assert!(
+        strip
+            .iter()
+            .any(|l| l.contains("COMPASS OFF +25") && l.contains("since T+")),
+        "{strip:?}"
+    );
+    assert!(
+        r.has_label_containing("CHANGE heading"),
+        "the section lists it"
+    );
+    r.snapshot("settings_model_watch");
 }

@@ -21,6 +21,7 @@ pub mod error;
 pub mod fault;
 pub mod paper;
 pub mod reference;
+pub mod seabed;
 pub mod series;
 pub mod simulator;
 
@@ -30,6 +31,7 @@ pub use fault::{
     apply_sensor_faults,
 };
 pub use paper::{Experiment, experiments};
+pub use seabed::{Seabed, WaterSurface};
 pub use series::{
     Schedule, ScheduleStep, predict_inputs, predict_measured, predict_schedule, run_schedule,
     run_schedule_on,

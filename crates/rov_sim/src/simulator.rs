@@ -32,6 +32,7 @@ use crate::fault::{
     DragExtra, FaultForce, FaultSpec, FaultTau, SensorFaultState, apply_sensor_faults, drag_factor,
     probe_mass, thrust_loss_tau,
 };
+use crate::seabed::{Seabed, WaterSurface};
 
 /// Simulator settings.
 #[derive(Debug, Clone)]
@@ -48,6 +49,10 @@ pub struct SimConfig {
     pub noiseless: bool,
     /// Initial conditions of the truth model.
     pub initial: InitialConditions,
+    /// A seabed the vehicle rests on ([`Seabed`]); none (open water) by default.
+    pub seabed: Option<Seabed>,
+    /// The water's surface ([`WaterSurface`]); none (unbounded water) by default.
+    pub surface: Option<WaterSurface>,
 }
 
 impl SimConfig {
@@ -66,6 +71,8 @@ impl SimConfig {
             sensors: SensorConfig::default(),
             noiseless: false,
             initial: InitialConditions::at_rest(1.0, 0.0),
+            seabed: None,
+            surface: None,
         }
     }
 }
@@ -121,6 +128,41 @@ where
     }
 }
 
+/// The external-force hook plus the seabed's contact, as one τ_ext.
+#[derive(Debug)]
+struct Contact<'a> {
+    user: Option<&'a dyn ExternalForce>,
+    seabed: Option<Seabed>,
+    surface: Option<WaterSurface>,
+}
+
+impl<'a> Contact<'a> {
+    /// The hook alone when there is no seabed or surface (bit-identical to a simulator
+    /// without them).
+    fn as_external(&'a self) -> Option<&'a dyn ExternalForce> {
+        if self.seabed.is_none() && self.surface.is_none() {
+            self.user
+        } else {
+            Some(self)
+        }
+    }
+}
+
+impl ExternalForce for Contact<'_> {
+    fn tau_body(&self, time_s: f64, eta: &Vector6, nu: &Vector6) -> Vector6 {
+        let user = self
+            .user
+            .map_or_else(Vector6::zeros, |f| f.tau_body(time_s, eta, nu));
+        let bed = self
+            .seabed
+            .map_or_else(Vector6::zeros, |b| b.tau_body(time_s, eta, nu));
+        let top = self
+            .surface
+            .map_or_else(Vector6::zeros, |s| s.tau_body(time_s, eta, nu));
+        user + bed + top
+    }
+}
+
 /// SplitMix64: derives independent RNG seeds from the user's seed.
 fn splitmix64(mut x: u64) -> u64 {
     x = x.wrapping_add(0x9E37_79B9_7F4A_7C15);
@@ -141,6 +183,8 @@ pub struct Simulator {
     current_ramp: CurrentRamp,
     sensors: SensorSuite,
     external: Option<Box<dyn ExternalForce>>,
+    seabed: Option<Seabed>,
+    surface: Option<WaterSurface>,
     truth: TruthState,
     readings: SensorReadings,
     /// Injected faults (issue 23) with the dive's start point.
@@ -154,6 +198,20 @@ impl Simulator {
         if !(config.step_s.is_finite() && config.step_s > 0.0 && config.step_s <= 1.0) {
             return Err(SimError::InvalidInput {
                 detail: format!("step_s = {} must be within (0, 1] s", config.step_s),
+            });
+        }
+        if let Some(b) = config.seabed
+            && !b.is_valid()
+        {
+            return Err(SimError::InvalidInput {
+                detail: format!("seabed {b:?}: every value must be finite, depth > 0"),
+            });
+        }
+        if let Some(w) = config.surface
+            && !w.is_valid()
+        {
+            return Err(SimError::InvalidInput {
+                detail: format!("surface {w:?}: every value must be finite and >= 0"),
             });
         }
         let current = OceanCurrent::new(config.current, splitmix64(seed ^ 0x0C0F_FEE0))?;
@@ -189,6 +247,8 @@ impl Simulator {
                 start_ne_m: [state.eta[0], state.eta[1]],
             },
             sensor_faults: SensorFaultState::default(),
+            seabed: config.seabed,
+            surface: config.surface,
             truth: TruthState {
                 time_s: 0.0,
                 state,
@@ -274,7 +334,12 @@ impl Simulator {
     }
 
     /// The fault force τ_ext at `t_s` for the state and command now, if any fault is set.
-    fn fault_tau(&self, t_s: f64, ramp: CurrentRamp) -> Option<FaultTau<'_>> {
+    fn fault_tau<'a>(
+        &'a self,
+        t_s: f64,
+        ramp: CurrentRamp,
+        user: Option<&'a dyn ExternalForce>,
+    ) -> Option<FaultTau<'a>> {
         if self.faults.faults.is_empty() {
             return None;
         }
@@ -282,7 +347,7 @@ impl Simulator {
         let state = &self.truth.state;
         let k = drag_factor(&self.faults.faults, t_s);
         Some(FaultTau {
-            user: self.external.as_deref(),
+            user,
             force: &self.faults,
             thrust_loss_tau: thrust_loss_tau(&self.faults.faults, t_s, model, &self.command, state),
             drag: (k != 1.0).then(|| DragExtra {
@@ -313,12 +378,18 @@ impl Simulator {
         self.current.step(h);
         let v1 = self.current.velocity_ned();
         self.current_ramp = CurrentRamp::between(t0, h, v0, v1);
-        let fault_tau = self.fault_tau(t0, self.current_ramp);
+        let contact = Contact {
+            user: self.external.as_deref(),
+            seabed: self.seabed,
+            surface: self.surface,
+        };
+        // The faults (if any) wrap the contact forces and the user's hook.
+        let fault_tau = self.fault_tau(t0, self.current_ramp, contact.as_external());
         let env = Environment {
             current: self.current_ramp,
             external: match &fault_tau {
                 Some(f) => Some(f as &dyn ExternalForce),
-                None => self.external.as_deref(),
+                None => contact.as_external(),
             },
         };
         let model = self.model.as_ref();
@@ -368,12 +439,18 @@ impl Simulator {
             start_ned_mps: self.current.velocity_ned(),
             rate_ned_mps2: self.current_ramp.rate_ned_mps2,
         };
-        let fault_tau = self.fault_tau(t, ramp);
+        let contact = Contact {
+            user: self.external.as_deref(),
+            seabed: self.seabed,
+            surface: self.surface,
+        };
+        // The faults (if any) wrap the contact forces and the user's hook.
+        let fault_tau = self.fault_tau(t, ramp, contact.as_external());
         let env = Environment {
             current: ramp,
             external: match &fault_tau {
                 Some(f) => Some(f as &dyn ExternalForce),
-                None => self.external.as_deref(),
+                None => contact.as_external(),
             },
         };
         let s = self.truth.state;

@@ -78,6 +78,9 @@ pub use alarms::{AlarmConfig, AlarmKind, AlarmLevel, AlarmState, Limit};
 pub use history::{Channel, History, HistorySample, decimate_min_max};
 pub use reconnect::{PortLister, PortView, ReconnectSettings};
 pub use replay::VirtualReplay;
+/// A fault of the simulated vehicle (`--fault` grammar; the GUI's fault form builds one
+/// through [`FaultSpec::parse`]).
+pub use rov_sim::FaultSpec;
 pub use rov_vehicle::FaultConfig as SimFaults;
 pub use shaping::{AxisShaping, GAIN_STEPS_PCT, Gain, StickShaping};
 pub use sim::VirtualStation;

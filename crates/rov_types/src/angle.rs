@@ -50,6 +50,33 @@ pub fn wrap_deg_360(angle_deg: f64) -> f64 {
     if w >= 360.0 { 0.0 } else { w }
 }
 
+/// An absolute heading rounded to `step_deg` (1° for a compass readout, 0.1° for
+/// telemetry) and then wrapped to `[0, 360)`: 359.6° shows as 000°, never 360°.
+/// Rounding after wrapping (`format!("{:03.0}", h.rem_euclid(360.0))`) is what made a
+/// compass reading flip between 000°, 001° and 360° about north (issue 25). A
+/// non-positive or non-finite step rounds to 1°.
+#[must_use]
+pub fn round_heading_deg(heading_deg: f64, step_deg: f64) -> f64 {
+    let step = if step_deg.is_finite() && step_deg > 0.0 {
+        step_deg
+    } else {
+        1.0
+    };
+    // `+ 0.0` turns a −0 (from rounding −0.4) into 0, which prints as "000", not "-00".
+    wrap_deg_360((heading_deg / step).round() * step) + 0.0
+}
+
+/// A heading as the three-digit compass text the station shows ("000".."359"), from
+/// [`round_heading_deg`]; "---" for a non-finite heading.
+#[must_use]
+pub fn compass_text(heading_deg: f64) -> String {
+    if heading_deg.is_finite() {
+        format!("{:03.0}", round_heading_deg(heading_deg, 1.0))
+    } else {
+        "---".to_owned()
+    }
+}
+
 /// The representation of `angle_deg` closest to `near_deg` (within ±180°): for drawing
 /// a heading trace next to its reference without a jump at north, and for unwrapping a
 /// series sample by sample.
@@ -61,6 +88,22 @@ pub fn nearest_deg(angle_deg: f64, near_deg: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_compass_reading_about_north_is_000_never_360() {
+        for h in [359.5, 359.6, 359.99, 360.0, 360.4, -0.4, 0.0, 720.2, -1e-12] {
+            assert_eq!(compass_text(h), "000", "{h}");
+        }
+        assert_eq!(compass_text(0.5), "001");
+        assert_eq!(compass_text(359.4), "359");
+        assert_eq!(compass_text(f64::NAN), "---");
+        assert_eq!(round_heading_deg(359.96, 0.1), 0.0);
+        assert!((round_heading_deg(359.94, 0.1) - 359.9).abs() < 1e-9);
+        for k in 0..36_000 {
+            let r = round_heading_deg(f64::from(k) * 0.01 - 0.3, 1.0);
+            assert!((0.0..360.0).contains(&r), "{k}: {r}");
+        }
+    }
 
     #[test]
     fn both_conventions_wrap_to_the_short_way() {

@@ -75,8 +75,15 @@ pub struct VehicleConfig {
     pub faults: FaultConfig,
     /// Tether voltage at no load, V (S2 example 75.52).
     pub tether_v: f64,
-    /// Tether voltage drop per ampere of 12 V load, V/A.
-    pub tether_drop_v_per_a: f64,
+    /// Loop resistance of the tether, Ω. The tether carries the vehicle's power at its
+    /// own voltage, so its drop is `R·P/(η·V)` for the power `P` drawn; the former model
+    /// dropped 2 V per ampere of *12 V* load (10 V at full forward: TETHER VOLTAGE LOW at
+    /// the default 66 V warning in normal flight, issue 25). 6 Ω is an estimate (about
+    /// 150 m of a small-gauge two-conductor tether); with it the full load of all three
+    /// thrusters drops 7 V, 68 V at the vehicle, above the default warning.
+    pub tether_loop_resistance_ohm: f64,
+    /// Efficiency of the vehicle's tether-to-12 V conversion (an estimate).
+    pub power_conversion_efficiency: f64,
     /// 12 V rail voltage, V (S2 example 12.19).
     pub rail_12v_v: f64,
     /// 12 V rail current with thrusters idle, mA (S2 example 385).
@@ -85,6 +92,29 @@ pub struct VehicleConfig {
     pub rail_ma_per_full_thruster: f64,
     /// The configuration data returned for register 0xF7.
     pub config_data: ConfigData,
+}
+
+impl VehicleConfig {
+    /// The tether voltage at the vehicle with `rail_ma` of 12 V load, V.
+    #[must_use]
+    pub fn tether_voltage_v(&self, rail_ma: f64) -> f64 {
+        let c = self;
+        let power_w = c.rail_12v_v * rail_ma / 1000.0;
+        let eta = c.power_conversion_efficiency.clamp(0.1, 1.0);
+        let v0 = c.tether_v;
+        if !(v0.is_finite() && v0 > 0.0 && power_w.is_finite()) {
+            return v0;
+        }
+        // V = V0 − R·I with I = P/(η·V): the larger root of V² − V0·V + R·P/η = 0; past
+        // the tether's maximum power transfer, the voltage halves.
+        let rp = c.tether_loop_resistance_ohm.max(0.0) * power_w / eta;
+        let disc = v0 * v0 - 4.0 * rp;
+        if disc >= 0.0 {
+            0.5 * (v0 + disc.sqrt())
+        } else {
+            0.5 * v0
+        }
+    }
 }
 
 fn text(s: &str) -> [u8; CONFIG_TEXT_LEN] {
@@ -135,7 +165,8 @@ impl Default for VehicleConfig {
             autopilot: AutopilotConfig::default(),
             faults: FaultConfig::default(),
             tether_v: 75.52,
-            tether_drop_v_per_a: 2.0,
+            tether_loop_resistance_ohm: 6.0,
+            power_conversion_efficiency: 0.85,
             rail_12v_v: 12.19,
             rail_idle_ma: 385.0,
             rail_ma_per_full_thruster: 2_000.0,
@@ -591,7 +622,7 @@ impl Vehicle {
         let load = (cmd.port.abs() + cmd.starboard.abs() + cmd.vertical.abs()) / 100.0;
         let rail_ma = self.cfg.rail_idle_ma + self.cfg.rail_ma_per_full_thruster * load;
         put_u16(img, csr::RAIL_12V_CURRENT, sat_u16(rail_ma));
-        let tether = self.cfg.tether_v - self.cfg.tether_drop_v_per_a * rail_ma / 1000.0;
+        let tether = self.cfg.tether_voltage_v(rail_ma);
         put_u16(img, csr::TETHER_VOLTAGE, sat_u16(tether * 100.0));
         put_u16(
             img,

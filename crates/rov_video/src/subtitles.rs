@@ -76,7 +76,7 @@ pub fn telemetry_text(t: &TelemetryText) -> String {
         }
     };
     let heading = if t.heading_deg.is_finite() {
-        format!("{:03.0}°", t.heading_deg.rem_euclid(360.0))
+        format!("{}°", rov_types::angle::compass_text(t.heading_deg))
     } else {
         "--".to_owned()
     };

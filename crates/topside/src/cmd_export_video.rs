@@ -23,7 +23,7 @@ fn autopilot_text(a: Option<&AutopilotRecord>) -> String {
     let depth = a.depth_setpoint_m.map(|d| format!("depth {d:.1} m"));
     let heading = a
         .heading_setpoint_deg
-        .map(|h| format!("heading {:03.0}°", h.rem_euclid(360.0)));
+        .map(|h| format!("heading {}°", rov_types::angle::compass_text(h)));
     match (depth, heading) {
         (None, None) => "manual".to_owned(),
         (Some(d), None) => d,

@@ -56,6 +56,16 @@ reverse_ratio_vertical = { value = 0.5, unit = "-", source = "scenario truth" }
 lag_time_constant_s = { value = 0.4, unit = "s", source = "scenario truth" }
 "#;
 
+/// Station settings for the recorded dives: the simulated vehicle rests on the seabed its
+/// camera shows (6 m by default), and these dives hold 8 m with stick steps about it, so
+/// the water is made deeper than any excursion (30 m): the lab's data is open-water flight,
+/// never bottom contact, which no model here describes.
+fn deep_water_config(name: &str) -> PathBuf {
+    let p = tmp(&format!("{name}-station.toml"));
+    std::fs::write(&p, "[video]\nsim_seabed_depth_m = 30.0\n").unwrap();
+    p
+}
+
 /// A pilot script: hold 8 m, then manual stick steps of both signs on the vertical and
 /// yaw sticks (pairs of opposite steps, so the depth stays near 8 m), from a small LCG.
 fn stick_script(seed: u64, duration_s: f64) -> String {
@@ -136,6 +146,7 @@ fn dive_lab_model_autopilot_loop_cuts_the_tracking_error() {
     let truth_s = truth.to_str().unwrap();
 
     // Two dives of the hidden-effect vehicle through the whole station.
+    let config = deep_water_config("truth");
     let mut sessions = Vec::new();
     for (seed, duration_s) in [(11u64, 240.0), (22, 180.0)] {
         let script = tmp(&format!("dive{seed}.toml"));
@@ -144,6 +155,8 @@ fn dive_lab_model_autopilot_loop_cuts_the_tracking_error() {
         let r = json(&[
             "record",
             "--sim",
+            "--config",
+            config.to_str().unwrap(),
             "--vehicle",
             truth_s,
             "--fast",
@@ -371,6 +384,7 @@ fn station_toml_names_the_autopilot_model_and_a_bad_value_is_refused() {
 #[test]
 fn model2_calibrated_on_a_model3_dive_closes_the_heading_feedforward_shortfall() {
     // Dives of the shipped (model3) vehicle; model2 calibrated by the lab on them.
+    let config = deep_water_config("m2");
     let mut sessions = Vec::new();
     for (seed, duration_s) in [(31u64, 240.0), (32, 180.0)] {
         let script = tmp(&format!("m2dive{seed}.toml"));
@@ -379,6 +393,8 @@ fn model2_calibrated_on_a_model3_dive_closes_the_heading_feedforward_shortfall()
         ok(&[
             "record",
             "--sim",
+            "--config",
+            config.to_str().unwrap(),
             "--fast",
             "--video",
             "none",

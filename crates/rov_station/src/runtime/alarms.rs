@@ -100,6 +100,15 @@ impl AlarmKind {
         }
     }
 
+    /// A limit on the low side (voltages): the value alarms below it.
+    #[must_use]
+    pub const fn is_low_limit(self) -> bool {
+        matches!(
+            self,
+            AlarmKind::TetherVoltageLow | AlarmKind::RailVoltageLow
+        )
+    }
+
     /// The unit of the value a limit alarm watches.
     #[must_use]
     pub const fn unit(self) -> &'static str {
@@ -110,6 +119,7 @@ impl AlarmKind {
             AlarmKind::TetherTurns => "turns",
             AlarmKind::TetherVoltageLow | AlarmKind::RailVoltageLow => "V",
             AlarmKind::InternalTempHigh => "°C",
+            AlarmKind::VehicleChanged => "noise floors",
             _ => "",
         }
     }
@@ -201,6 +211,17 @@ struct LimitSpec {
     range: (f64, f64),
     high: bool,
     hysteresis: f64,
+    /// The hysteresis is at most this fraction of the threshold it applies to, so a
+    /// limit set low (a 3 m depth limit in a tank) is not held a third of its value
+    /// away (issue 25: "DEPTH LIMIT warning 2.5 m (limit 3.0)" with 1 m of hysteresis).
+    hysteresis_frac: f64,
+}
+
+impl LimitSpec {
+    /// The hysteresis (in the limit's unit) about `threshold`.
+    fn hysteresis_at(&self, threshold: f64) -> f64 {
+        self.hysteresis.min(self.hysteresis_frac * threshold.abs())
+    }
 }
 
 const SPECS: [LimitSpec; 7] = [
@@ -210,6 +231,7 @@ const SPECS: [LimitSpec; 7] = [
         range: (0.0, 100.0),
         high: true,
         hysteresis: 3.0,
+        hysteresis_frac: 1.0,
     },
     LimitSpec {
         name: "humidity_rise",
@@ -217,13 +239,17 @@ const SPECS: [LimitSpec; 7] = [
         range: (0.0, 100.0),
         high: true,
         hysteresis: 0.3,
+        hysteresis_frac: 1.0,
     },
     LimitSpec {
         name: "depth",
         unit: "m",
         range: (0.0, 1000.0),
         high: true,
+        // 1 m at the default 250 m; 5 % of a low limit (0.15 m at 3 m): more than the
+        // pressure sensor's noise (1.5 cm) and a hold's ripple, well inside the limit.
         hysteresis: 1.0,
+        hysteresis_frac: 0.05,
     },
     LimitSpec {
         name: "tether_turns",
@@ -231,6 +257,7 @@ const SPECS: [LimitSpec; 7] = [
         range: (0.0, 100.0),
         high: true,
         hysteresis: 0.25,
+        hysteresis_frac: 1.0,
     },
     LimitSpec {
         name: "tether",
@@ -238,6 +265,7 @@ const SPECS: [LimitSpec; 7] = [
         range: (0.0, 400.0),
         high: false,
         hysteresis: 3.0,
+        hysteresis_frac: 1.0,
     },
     LimitSpec {
         name: "rail_12v",
@@ -245,6 +273,7 @@ const SPECS: [LimitSpec; 7] = [
         range: (0.0, 30.0),
         high: false,
         hysteresis: 0.4,
+        hysteresis_frac: 1.0,
     },
     LimitSpec {
         name: "internal_temp",
@@ -252,6 +281,7 @@ const SPECS: [LimitSpec; 7] = [
         range: (-40.0, 150.0),
         high: true,
         hysteresis: 2.0,
+        hysteresis_frac: 1.0,
     },
 ];
 
@@ -357,6 +387,43 @@ pub struct AlarmState {
     pub value: Option<f64>,
     /// The limit crossed (limit alarms).
     pub limit: Option<f64>,
+    /// Where the level held now lets go (the limit less its hysteresis; limit alarms
+    /// while active).
+    pub clears_at: Option<f64>,
+}
+
+impl AlarmState {
+    /// The pilot's line for it, every number with its unit: "DEPTH LIMIT warning 2.95 m
+    /// (limit 3.00 m, clears below 2.85 m)".
+    #[must_use]
+    pub fn describe(&self) -> String {
+        let level = match self.level {
+            AlarmLevel::Alarm => "",
+            AlarmLevel::Warning => " warning",
+        };
+        let unit = self.kind.unit();
+        let sp = if unit.is_empty() { "" } else { " " };
+        let value = match (self.value, self.limit) {
+            (Some(v), Some(l)) => {
+                let clears = match self.clears_at.filter(|_| self.active) {
+                    Some(c) => {
+                        let side = if self.kind.is_low_limit() {
+                            "above"
+                        } else {
+                            "below"
+                        };
+                        format!(", clears {side} {c:.2}{sp}{unit}")
+                    }
+                    None => String::new(),
+                };
+                format!(" {v:.2}{sp}{unit} (limit {l:.2}{sp}{unit}{clears})")
+            }
+            (Some(v), None) => format!(" {v:.2}{sp}{unit}"),
+            _ => String::new(),
+        };
+        let state = if self.active { "" } else { " (cleared)" };
+        format!("{}{level}{value}{state}", self.kind.text())
+    }
 }
 
 /// Alarm transitions for the event log.
@@ -522,6 +589,7 @@ impl Alarms {
                     acknowledged: false,
                     value,
                     limit,
+                    clears_at: None,
                 });
                 out.push(AlarmChange::Raised(kind, l));
             }
@@ -551,9 +619,9 @@ impl Alarms {
         let past = |threshold: f64, held: bool| {
             let t = if held {
                 if s.high {
-                    threshold - s.hysteresis
+                    threshold - s.hysteresis_at(threshold)
                 } else {
-                    threshold + s.hysteresis
+                    threshold + s.hysteresis_at(threshold)
                 }
             } else {
                 threshold
@@ -573,6 +641,13 @@ impl Alarms {
             None => None,
         };
         self.set(kind, level, Some(v), limit, now_s, out);
+        let clears_at = limit.map(|t| {
+            let h = s.hysteresis_at(t);
+            if s.high { t - h } else { t + h }
+        });
+        if let Some(a) = self.list.iter_mut().find(|a| a.kind == kind) {
+            a.clears_at = clears_at;
+        }
     }
 
     /// Evaluates the causes at `now_s`; returns the transitions.
@@ -694,6 +769,60 @@ mod tests {
         i.link_lost = false;
         a.evaluate(4.0, &i);
         assert!(a.list().is_empty());
+    }
+
+    #[test]
+    fn a_low_depth_limit_lets_go_close_to_its_level_and_says_where() {
+        // A tank's 3 m warning: 1 m of hysteresis held the warning at 2.5 m ("DEPTH
+        // LIMIT warning 2.5 m (limit 3.0)"); now 5 % of the level, 0.15 m.
+        let mut a = Alarms::new(AlarmConfig {
+            depth_m: Limit {
+                warn: 3.0,
+                alarm: 3.5,
+            },
+            ..AlarmConfig::default()
+        });
+        let depth = |d: f64| AlarmInputs {
+            ever_connected: true,
+            depth_m: Some(d),
+            ..AlarmInputs::default()
+        };
+        a.evaluate(0.0, &depth(3.05));
+        let w = a.list()[0];
+        assert_eq!(w.level, AlarmLevel::Warning);
+        assert_eq!(
+            w.describe(),
+            "DEPTH LIMIT warning 3.05 m (limit 3.00 m, clears below 2.85 m)"
+        );
+        a.evaluate(1.0, &depth(2.9));
+        assert!(a.list()[0].active, "inside the band: held");
+        a.evaluate(2.0, &depth(2.5));
+        assert!(!a.list()[0].active, "2.5 m is well clear of a 3 m limit");
+        assert_eq!(
+            a.list()[0].describe(),
+            "DEPTH LIMIT warning 2.50 m (limit 3.00 m) (cleared)"
+        );
+        // The default 250 m limit keeps its 1 m.
+        let mut a = Alarms::new(AlarmConfig::default());
+        a.evaluate(0.0, &depth(251.0));
+        a.evaluate(1.0, &depth(249.2));
+        assert!(a.list()[0].active);
+        assert_eq!(a.list()[0].clears_at, Some(249.0));
+        // Voltages clear above.
+        let mut a = Alarms::new(AlarmConfig::default());
+        a.evaluate(
+            0.0,
+            &AlarmInputs {
+                ever_connected: true,
+                tether_v: Some(65.0),
+                ..AlarmInputs::default()
+            },
+        );
+        assert!(
+            a.list()[0].describe().contains("clears above 69.00 V"),
+            "{}",
+            a.list()[0].describe()
+        );
     }
 
     #[test]

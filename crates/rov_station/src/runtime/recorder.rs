@@ -3,6 +3,16 @@
 //! loop). The writer's flush and fsync run on this thread, so disk latency never delays
 //! a control tick. The thread also flushes on a 100 ms wall timer, so a recording whose
 //! message stream stops (link lost) still loses at most 0.1 s when killed.
+//!
+//! **Time order.** The camera's access units reach the recorder after the encoder's
+//! latency (~0.1–0.5 s) stamped with their capture time, while telemetry arrives
+//! stamped at its tick, so written as they came every unit was earlier than the
+//! telemetry before it (issue 25: thousands of "earlier than the message before them"
+//! per session). The thread holds items for [`REORDER_WINDOW_NS`] in a time-ordered
+//! buffer and writes them in time order; an item later than that (a stalled encoder) is
+//! written when it comes, and the file's reader reports it. The buffer is drained when
+//! the recording stops; a killed process loses at most the window plus the flush
+//! interval.
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -41,6 +51,106 @@ pub enum RecordItem {
     Truth(u64, TruthRecord),
     /// `/camera/video`: one H.264 access unit (Annex B) and whether it is a key frame.
     Video(u64, bool, Vec<u8>),
+}
+
+impl RecordItem {
+    /// Its recording time, ns.
+    #[must_use]
+    pub const fn t_ns(&self) -> u64 {
+        match self {
+            Self::Raw(_, t, _)
+            | Self::Nav(t, _)
+            | Self::Status(t, _)
+            | Self::Thrust(t, _)
+            | Self::Pilot(t, _)
+            | Self::Autopilot(t, _)
+            | Self::Observer(t, _)
+            | Self::Link(t, _)
+            | Self::Event(t, _)
+            | Self::Truth(t, _)
+            | Self::Video(t, _, _) => *t,
+        }
+    }
+}
+
+/// How long the recorder holds items to write them in time order, ns (above the video
+/// encoder's latency on a loaded laptop).
+pub const REORDER_WINDOW_NS: u64 = 2_000_000_000;
+
+/// An item waiting in the reorder buffer, ordered by (time, arrival) reversed so that
+/// the heap's top is the earliest.
+#[derive(Debug)]
+struct Pending {
+    t_ns: u64,
+    seq: u64,
+    item: RecordItem,
+}
+
+impl PartialEq for Pending {
+    fn eq(&self, other: &Self) -> bool {
+        (self.t_ns, self.seq) == (other.t_ns, other.seq)
+    }
+}
+impl Eq for Pending {}
+impl PartialOrd for Pending {
+    fn partial_cmp(&self, other: &Self) -> Option<std::cmp::Ordering> {
+        Some(self.cmp(other))
+    }
+}
+impl Ord for Pending {
+    fn cmp(&self, other: &Self) -> std::cmp::Ordering {
+        (other.t_ns, other.seq).cmp(&(self.t_ns, self.seq))
+    }
+}
+
+/// Items in time order: [`Reorder::push`] returns those older than the newest time seen
+/// minus the window, earliest first (items of equal time keep their arrival order).
+#[derive(Debug)]
+pub(crate) struct Reorder {
+    heap: std::collections::BinaryHeap<Pending>,
+    newest_ns: u64,
+    seq: u64,
+    window_ns: u64,
+}
+
+impl Reorder {
+    pub(crate) fn new(window_ns: u64) -> Self {
+        Self {
+            heap: std::collections::BinaryHeap::new(),
+            newest_ns: 0,
+            seq: 0,
+            window_ns,
+        }
+    }
+
+    /// Adds an item; returns the items now due, in time order.
+    pub(crate) fn push(&mut self, item: RecordItem) -> Vec<RecordItem> {
+        let t_ns = item.t_ns();
+        self.newest_ns = self.newest_ns.max(t_ns);
+        self.heap.push(Pending {
+            t_ns,
+            seq: self.seq,
+            item,
+        });
+        self.seq += 1;
+        let due = self.newest_ns.saturating_sub(self.window_ns);
+        let mut out = Vec::new();
+        while self.heap.peek().is_some_and(|p| p.t_ns <= due) {
+            if let Some(p) = self.heap.pop() {
+                out.push(p.item);
+            }
+        }
+        out
+    }
+
+    /// Everything still held, in time order.
+    pub(crate) fn drain(&mut self) -> Vec<RecordItem> {
+        let mut out = Vec::with_capacity(self.heap.len());
+        while let Some(p) = self.heap.pop() {
+            out.push(p.item);
+        }
+        out
+    }
 }
 
 /// Queue capacity, items (about 1.5 s of everything at 50 Hz).
@@ -304,24 +414,31 @@ fn run(
             *g = Some(e);
         }
     };
+    let write = |w: &mut SessionWriter, item: RecordItem| {
+        // Once writing failed the file is not extended (the error is shown).
+        if counters.failed.load(Ordering::Relaxed) {
+            return;
+        }
+        match write_item(w, &item) {
+            Ok(()) => {
+                counters.written.fetch_add(1, Ordering::Relaxed);
+            }
+            // A unit the writer refuses is skipped: the telemetry goes on.
+            Err(
+                rov_session::SessionError::Video { .. }
+                | rov_session::SessionError::MessageTooLarge { .. },
+            ) if matches!(item, RecordItem::Video(..)) => {
+                counters.video_skipped.fetch_add(1, Ordering::Relaxed);
+            }
+            Err(e) => fail(e.to_string()),
+        }
+    };
+    let mut order = Reorder::new(REORDER_WINDOW_NS);
     loop {
         match rx.recv_timeout(Duration::from_millis(100)) {
             Ok(item) => {
-                // Once writing failed the file is not extended (the error is shown).
-                if !counters.failed.load(Ordering::Relaxed) {
-                    match write_item(&mut w, &item) {
-                        Ok(()) => {
-                            counters.written.fetch_add(1, Ordering::Relaxed);
-                        }
-                        // A unit the writer refuses is skipped: the telemetry goes on.
-                        Err(
-                            rov_session::SessionError::Video { .. }
-                            | rov_session::SessionError::MessageTooLarge { .. },
-                        ) if matches!(item, RecordItem::Video(..)) => {
-                            counters.video_skipped.fetch_add(1, Ordering::Relaxed);
-                        }
-                        Err(e) => fail(e.to_string()),
-                    }
+                for due in order.push(item) {
+                    write(&mut w, due);
                 }
             }
             Err(RecvTimeoutError::Timeout) => {
@@ -332,5 +449,42 @@ fn run(
             Err(RecvTimeoutError::Disconnected) => break,
         }
     }
+    for item in order.drain() {
+        write(&mut w, item);
+    }
     w.finish().map_err(|e| e.to_string())
+}
+
+#[cfg(test)]
+mod order_tests {
+    use super::*;
+
+    fn ev(t: u64) -> RecordItem {
+        RecordItem::Raw(Direction::Rx, t, vec![0])
+    }
+
+    #[test]
+    fn late_video_is_written_in_time_order() {
+        // Telemetry every 20 ms; each video unit arrives 300 ms after its capture time.
+        let mut r = Reorder::new(REORDER_WINDOW_NS);
+        let (mut out, mut pushed) = (Vec::new(), 0);
+        for k in 0..500u64 {
+            let t = k * 20_000_000;
+            out.extend(r.push(ev(t)));
+            pushed += 1;
+            if k % 2 == 0 && t >= 300_000_000 {
+                out.extend(r.push(RecordItem::Video(t - 300_000_000, false, vec![1])));
+                pushed += 1;
+            }
+        }
+        out.extend(r.drain());
+        assert_eq!(out.len(), pushed);
+        assert!(out.windows(2).all(|w| w[0].t_ns() <= w[1].t_ns()));
+        // Equal times keep their arrival order.
+        let mut r = Reorder::new(0);
+        let mut a = r.push(RecordItem::Raw(Direction::Tx, 5, vec![]));
+        a.extend(r.push(RecordItem::Raw(Direction::Rx, 5, vec![])));
+        a.extend(r.drain());
+        assert!(matches!(a[0], RecordItem::Raw(Direction::Tx, ..)));
+    }
 }

@@ -36,6 +36,7 @@ use rov_lab::engine::SeriesPrediction;
 use rov_session::{Decoded, Message, Playback, ReadOptions, Session, Topic};
 use rov_types::model_id::{BaseModel, ModelId};
 
+use crate::runtime::dive::DiveLog;
 use crate::runtime::history::{History, HistorySample};
 pub use crate::runtime::predict::HORIZON_S;
 use crate::runtime::view::{IndexedEvent, Pipeline, ReplayView, Source};
@@ -163,6 +164,9 @@ struct Feed {
     pipeline: Pipeline,
     overlay: Option<Arc<Overlay>>,
     start_ns: u64,
+    /// The dive log over the recorded depth, as the live station kept it (issue 25: the
+    /// replayed dive panel said "at the surface" at 5 m because nothing fed it).
+    dive: DiveLog,
 }
 
 impl Feed {
@@ -171,6 +175,7 @@ impl Feed {
             pipeline: Pipeline::new(source),
             overlay: None,
             start_ns,
+            dive: DiveLog::default(),
         }
     }
 
@@ -188,6 +193,10 @@ impl Feed {
         match d {
             Decoded::Nav(r) => {
                 p.nav(t_s, &r);
+                let _ = self.dive.update(t_s, p.view.snapshot.depth_m);
+                let counts = (p.view.dive.markers, p.view.dive.notes);
+                p.view.dive = self.dive.view();
+                (p.view.dive.markers, p.view.dive.notes) = counts;
                 p.view.prediction = self.overlay.as_ref().and_then(|o| o.at(t_s));
                 p.set_time(t_s);
                 return Some(p.sample(t_s));
@@ -198,10 +207,41 @@ impl Feed {
             Decoded::Autopilot(r) => p.autopilot(&r),
             Decoded::Observer(r) => p.observer(&r),
             Decoded::Link(r) => p.link(t_s, &r),
-            Decoded::Event(r) => p.event(t_s, &r),
+            Decoded::Event(r) => {
+                match r.kind.as_str() {
+                    "marker" => p.view.dive.markers += 1,
+                    "note" => p.view.dive.notes += 1,
+                    _ => {}
+                }
+                p.event(t_s, &r);
+            }
             _ => {}
         }
         None
+    }
+
+    /// The dive log at `pos_s` from the session's depth history up to there and its
+    /// markers and notes.
+    fn rebuild_dive(&mut self, history: &History, pos_s: f64, events: &[IndexedEvent]) {
+        self.dive = DiveLog::default();
+        for i in history.range(f64::NEG_INFINITY, pos_s) {
+            if let Some(s) = history.sample(i) {
+                let d = f64::from(s.depth_m);
+                let _ = self.dive.update(s.t_s, d.is_finite().then_some(d));
+            }
+        }
+        let v = &mut self.pipeline.view;
+        v.dive = self.dive.view();
+        let before = events.iter().filter(|e| e.t_s <= pos_s);
+        let (mut markers, mut notes) = (0, 0);
+        for e in before {
+            match e.kind.as_str() {
+                "marker" => markers += 1,
+                "note" => notes += 1,
+                _ => {}
+            }
+        }
+        (v.dive.markers, v.dive.notes) = (markers, notes);
     }
 }
 
@@ -419,6 +459,7 @@ impl ReplayEngine {
                 }
             }
             self.stale_history = !indexed;
+            self.feed.rebuild_dive(&h, pos, &g.events);
         }
         self.pending.clear();
         self.replace = Some(h);

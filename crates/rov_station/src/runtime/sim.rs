@@ -64,24 +64,29 @@ impl SimApp for App {
 }
 
 /// The simulated Pro 4 of a configuration (model 3, or the model of `sim_vehicle`; its
-/// seed, link faults and vehicle faults), for the live runtime and the virtual station alike.
+/// seed, link faults and vehicle faults), for the live runtime and the virtual station
+/// alike. It starts
+/// floating at the surface ([`rov_sim::WaterSurface`]: the pre-dive "zero depth" is then
+/// done where it should be; it started 1 m deep, which the zeroing accepted as the
+/// surface) and rests on the seabed the simulated camera shows (`[video]
+/// sim_seabed_depth_m`, also when no camera runs): the vehicle meets the bottom it sees
+/// ([`rov_sim::Seabed`]).
 pub(crate) fn sim_vehicle(cfg: &RuntimeConfig) -> Result<Vehicle, rov_vehicle::VehicleError> {
     let vcfg = VehicleConfig {
         faults: cfg.sim_faults.clone(),
         ..VehicleConfig::default()
     };
-    let mut vehicle = match &cfg.sim_vehicle {
-        Some(v) => {
-            let sim = rov_sim::Simulator::new(
-                rov_sim::SimConfig::with_model(v.model.clone()),
-                cfg.sim_seed,
-            )?;
-            Vehicle::new(vcfg, sim)
-        }
-        None => Vehicle::with_model3(vcfg, cfg.sim_seed)?,
+    let mut sc = match &cfg.sim_vehicle {
+        Some(v) => rov_sim::SimConfig::with_model(v.model.clone()),
+        None => rov_sim::SimConfig::default_model3()?,
     };
-    vehicle.sim_mut().set_faults(cfg.vehicle_faults.clone());
-    Ok(vehicle)
+    sc.seabed = Some(rov_sim::Seabed::at_depth(cfg.video.sim_seabed_depth_m));
+    let surface = rov_sim::WaterSurface::default();
+    sc.initial = rov_dynamics::models::InitialConditions::at_rest(surface.floating_depth_m(), 0.0);
+    sc.surface = Some(surface);
+    let mut sim = rov_sim::Simulator::new(sc, cfg.sim_seed)?;
+    sim.set_faults(cfg.vehicle_faults.clone());
+    Ok(Vehicle::new(vcfg, sim))
 }
 
 /// The live engine on virtual time; see the module docs.

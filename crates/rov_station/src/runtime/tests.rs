@@ -443,6 +443,80 @@ fn record_then_replay_through_the_same_pipeline() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// Issue 25 #12: the replayed dive panel follows the recorded depth (it said "at the
+/// surface" at 5 m), at the play-head after playing and after a seek.
+#[test]
+fn the_replayed_dive_log_follows_the_recorded_depth() {
+    let _serial = serial();
+    let dir = std::env::temp_dir().join(format!("rov_station_rt_dive_{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("dive.mcap");
+    let (mut st, h) = virtual_armed();
+    h.start_recording(&path);
+    h.send(StationCommand::Mode(ModeCommand::SetDepth { depth_m: 4.0 }));
+    st.advance(20.0).unwrap();
+    h.command(RuntimeCommand::Marker);
+    st.advance(1.0).unwrap();
+    let live = h.view().dive;
+    assert!(live.diving && live.max_depth_m > 3.5, "{live:?}");
+    h.stop_recording();
+    st.advance(0.1).unwrap();
+    let (mut rp, rh) = VirtualReplay::open(&path).unwrap();
+    assert!(
+        !rh.view().dive.diving,
+        "at the start the vehicle is not yet diving"
+    );
+    rh.command(RuntimeCommand::Replay(ReplayCommand::Speed(50.0)));
+    rh.command(RuntimeCommand::Replay(ReplayCommand::Play));
+    for _ in 0..100 {
+        rp.advance(0.02);
+    }
+    let d = rh.view().dive;
+    assert!(d.diving && d.dives == 1, "{d:?}");
+    assert!(
+        (d.max_depth_m - live.max_depth_m).abs() < 0.1,
+        "{d:?} vs {live:?}"
+    );
+    assert_eq!(d.markers, 1);
+    // A seek rebuilds it from the session up to the position.
+    rh.command(RuntimeCommand::Replay(ReplayCommand::Seek(15.0)));
+    rp.advance(0.0);
+    let d = rh.view().dive;
+    assert!(d.diving && d.max_depth_m > 3.0 && d.markers == 0, "{d:?}");
+    assert!(d.dive_s > 5.0 && d.dive_s < 15.0, "{d:?}");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// Issue 25 #11: the simulated vehicle starts floating at the surface, where "zero
+/// depth here" passes; under water (1 m, where it used to start) the zero is refused.
+#[test]
+fn zero_depth_passes_at_the_surface_and_is_refused_a_metre_down() {
+    use crate::runtime::dive::{Item, ItemStatus};
+    let _serial = serial();
+    let (mut st, h) = virtual_armed();
+    let d0 = h.view().snapshot.depth_m.unwrap();
+    assert!(d0.abs() < 0.3, "starts at the surface: {d0:.2} m");
+    h.command(RuntimeCommand::Checklist(ChecklistCommand::ZeroDepth));
+    st.advance(0.1).unwrap();
+    let item = |h: &StationHandle| {
+        let v = h.view();
+        let i = v.checklist.item(Item::DepthZero).unwrap();
+        (i.status, i.detail.clone())
+    };
+    assert_eq!(item(&h).0, ItemStatus::Pass, "{:?}", item(&h));
+    // Floating, it stays at the surface (it does not rise into the air).
+    st.advance(10.0).unwrap();
+    let d = h.view().snapshot.depth_m.unwrap();
+    assert!((-0.05..0.3).contains(&d), "floating at {d:.2} m");
+    h.send(StationCommand::Mode(ModeCommand::SetDepth { depth_m: 1.0 }));
+    st.advance(15.0).unwrap();
+    h.command(RuntimeCommand::Checklist(ChecklistCommand::ZeroDepth));
+    st.advance(0.1).unwrap();
+    let (status, detail) = item(&h);
+    assert_eq!(status, ItemStatus::Fail, "{detail}");
+    assert!(detail.contains("not at the surface"), "{detail}");
+}
+
 #[test]
 fn threaded_replay_plays_on_wall_time() {
     let _serial = serial();
@@ -515,6 +589,38 @@ fn a_live_recording_is_in_time_order() {
     let s = rov_session::open(&path).unwrap();
     assert!(s.len() > 1000, "{}", s.len());
     // Opening reads only the index; the full check reads every message in file order.
+    let report = s.check();
+    assert!(report.damage.is_none(), "{:?}", report.damage);
+    let order: Vec<&String> = report
+        .warnings
+        .iter()
+        .filter(|w| !w.starts_with("/events: "))
+        .collect();
+    assert!(order.is_empty(), "{order:?}");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// Issue 25 #13: with the simulated camera recorded, the video's access units (stamped
+/// at capture, delivered after the encoder's latency) are written in time order too.
+#[test]
+fn a_live_recording_with_video_is_in_time_order() {
+    let _serial = serial();
+    let dir = std::env::temp_dir().join(format!("rov_station_order_v_{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("live_video.mcap");
+    let mut cfg = sim_config();
+    cfg.video = crate::runtime::video::VideoSettings {
+        source: "sim".into(),
+        ..crate::runtime::video::VideoSettings::default()
+    };
+    let h = Runtime::start(cfg).unwrap();
+    wait_for(&h, "the link", 10.0, |v| v.link.health == "connected");
+    h.start_recording(&path);
+    std::thread::sleep(Duration::from_secs(4));
+    h.shutdown();
+    let s = rov_session::open(&path).unwrap();
+    let video = s.count("/camera/video");
+    assert!(video > 25, "{video} video units recorded");
     let report = s.check();
     assert!(report.damage.is_none(), "{:?}", report.damage);
     let order: Vec<&String> = report

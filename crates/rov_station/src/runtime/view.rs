@@ -311,6 +311,23 @@ pub struct WatchView {
     pub off_reason: Option<String>,
 }
 
+impl WatchView {
+    /// The latest change in the pilot's words: "PORT THRUST −40 % since T+05:02"
+    /// (station time), `None` before any change.
+    #[must_use]
+    pub fn latest_change(&self) -> Option<String> {
+        let a = self.alerts.iter().rev().find(|a| a.kind == "change")?;
+        let s = a.since_s.max(0.0).round() as u64;
+        Some(format!(
+            "{} since T+{:02}:{:02}:{:02}",
+            a.words,
+            s / 3600,
+            (s / 60) % 60,
+            s % 60
+        ))
+    }
+}
+
 #[derive(Debug, Default, Serialize)]
 pub struct StationView {
     /// The model watch: alerts in words.

@@ -300,3 +300,34 @@ fn bad_settings_are_refused_and_a_bad_pose_is_black() {
         );
     }
 }
+
+#[test]
+fn the_picture_follows_depth_down_to_the_seabed() {
+    // Level and tilted down, from mid-water to resting on the default 6 m seabed (the
+    // simulated vehicle's body origin stops 0.11 m above it, rov_sim::Seabed): every
+    // 0.2 m deeper is a different picture, also in the last half metre.
+    let scene = SimScene::default();
+    let cam = camera(scene.clone());
+    let resting = scene.seabed_depth_m - 0.11;
+    for tilt in [0.0, -30.0] {
+        let mut depths: Vec<f64> = (0..=12).map(|k| 3.5 + 0.2 * f64::from(k)).collect();
+        depths.retain(|d| *d < resting);
+        depths.push(resting);
+        let frames: Vec<VideoFrame> = depths
+            .iter()
+            .map(|&d| {
+                let pose = CameraPose::from_degrees(1.0, 2.0, d, 0.0, 0.0, 20.0, tilt);
+                cam.render(&pose, 50.0, 0, 0)
+            })
+            .collect();
+        for (w, d) in frames.windows(2).zip(depths.windows(2)) {
+            let change = w[0].mean_abs_diff(&w[1]).unwrap();
+            assert!(
+                change > 0.5,
+                "tilt {tilt}: {:.2} → {:.2} m changes the picture by {change:.2}/255",
+                d[0],
+                d[1]
+            );
+        }
+    }
+}

@@ -2,6 +2,13 @@
 
 use super::*;
 
+/// "Zero depth here" accepts a depth reading within this of 0, m. A vehicle floating at
+/// the surface reads about its own half height (0.11 m for the Pro 4) plus the day's
+/// air-pressure change since the last zero (±30 mbar, ±0.3 m); anything deeper is a
+/// vehicle under water, whose zero would offset every depth of the dive. It was 2 m, so
+/// the simulated vehicle's start at 1 m was accepted as the surface (issue 25).
+pub(crate) const ZERO_DEPTH_WINDOW_M: f64 = 0.5;
+
 impl Engine {
     /// "at 12.3 m, heading 090°, dive 03:12" for notes and markers.
     pub(super) fn where_now(&self) -> String {
@@ -11,7 +18,7 @@ impl Engine {
             .map_or_else(|| "depth ---".into(), |d| format!("at {d:.1} m"));
         let h = s.heading_deg.map_or_else(
             || "heading ---".into(),
-            |h| format!("heading {:03.0}°", h.rem_euclid(360.0)),
+            |h| format!("heading {}°", rov_types::angle::compass_text(h)),
         );
         let t = self.dive.view().dive_s as u64;
         format!("{d}, {h}, dive {:02}:{:02}", t / 60, t % 60)
@@ -31,7 +38,7 @@ impl Engine {
                 let h = self.pipeline.view.snapshot.heading_deg;
                 let hs = h.map_or_else(
                     || "---".into(),
-                    |h| format!("{:03.0}°", h.rem_euclid(360.0)),
+                    |h| format!("{}°", rov_types::angle::compass_text(h)),
                 );
                 let (st, d) = match (c, h) {
                     (_, None) => (ItemStatus::Fail, "no heading from the vehicle".to_string()),
@@ -46,7 +53,7 @@ impl Engine {
             ChecklistCommand::ZeroDepth => {
                 let depth = self.pipeline.view.snapshot.depth_m;
                 match (self.last_pressure_mbar, depth) {
-                    (Some(p), Some(d)) if d.abs() < 2.0 => {
+                    (Some(p), Some(d)) if d.abs() < ZERO_DEPTH_WINDOW_M => {
                         let was = link.config().conventions.surface_pressure_mbar;
                         link.set_surface_pressure_mbar(p);
                         let cmd =
@@ -61,7 +68,10 @@ impl Engine {
                     (_, Some(d)) => self.set_item(
                         Item::DepthZero,
                         ItemStatus::Fail,
-                        format!("not at the surface ({d:.1} m): zero at the surface"),
+                        format!(
+                            "not at the surface (depth reads {d:.2} m, more than \
+                             {ZERO_DEPTH_WINDOW_M} m from 0): surface the vehicle, then zero"
+                        ),
                     ),
                     _ => self.set_item(
                         Item::DepthZero,
