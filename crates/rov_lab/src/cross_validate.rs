@@ -63,16 +63,7 @@ pub struct CrossValidation {
 }
 
 fn median(mut v: Vec<f64>) -> Option<f64> {
-    if v.is_empty() {
-        return None;
-    }
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    Some(if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    })
+    rov_types::fit::median(&mut v)
 }
 
 /// Runs grouped by session, in first-seen order.

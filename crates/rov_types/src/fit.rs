@@ -55,6 +55,23 @@ pub struct Fit {
     pub fit_pct: Option<f64>,
 }
 
+#[must_use]
+/// The median of `v` (sorted in place; the mean of the two middle values for an even
+/// count); `None` when empty. NaN sorts last ([`f64::total_cmp`]): filter it first.
+pub fn median(v: &mut [f64]) -> Option<f64> {
+    if v.is_empty() {
+        return None;
+    }
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    let hi = v.get(n / 2).copied()?;
+    Some(if n % 2 == 1 {
+        hi
+    } else {
+        0.5 * (v.get(n / 2 - 1).copied()? + hi)
+    })
+}
+
 /// Root mean square of the finite values (`None` if there are none).
 #[must_use]
 pub fn rms(values: impl IntoIterator<Item = f64>) -> Option<f64> {

@@ -154,19 +154,7 @@ impl ChannelNoise {
     }
 }
 
-/// Median (sorts `v`; NaN-free input).
-pub(crate) fn median(v: &mut [f64]) -> Option<f64> {
-    if v.is_empty() {
-        return None;
-    }
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    Some(if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    })
-}
+pub(crate) use rov_types::fit::median;
 
 #[cfg(test)]
 mod tests {

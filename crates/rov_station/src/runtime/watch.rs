@@ -188,46 +188,58 @@ pub fn nav_row(t_s: f64, thrust_pct: [f64; 3], t: &rov_driver::Telemetry) -> Mea
     }
 }
 
+/// 10 Hz rows of the simulated model 3 flown open loop through slow command changes
+/// (turning and heaving), with the given `--fault` specs: the watch's test and bench
+/// dive, written by the simulator (not by the watch's own model).
+///
+/// # Errors
+/// A fault spec that does not parse, or a simulator error, in words.
+pub fn simulated_rows(n: usize, faults: &[&str]) -> Result<Vec<MeasurementRow>, String> {
+    use rov_dynamics::ThrustPct;
+    let cfg = rov_sim::SimConfig::default_model3().map_err(|e| e.to_string())?;
+    let mut sim = rov_sim::Simulator::new(cfg, 3).map_err(|e| e.to_string())?;
+    let specs = faults
+        .iter()
+        .map(|f| rov_sim::FaultSpec::parse(f).map_err(|e| e.to_string()))
+        .collect::<Result<Vec<_>, _>>()?;
+    sim.set_faults(specs);
+    let mut out = Vec::with_capacity(n);
+    for k in 0..n {
+        let t = k as f64 * 0.1;
+        let phase = (t / 7.0).sin();
+        let cmd = ThrustPct {
+            port: 30.0 + 15.0 * phase,
+            starboard: 30.0 - 15.0 * phase,
+            vertical: 10.0 * (t / 11.0).cos(),
+        };
+        sim.set_command(cmd).map_err(|e| e.to_string())?;
+        sim.advance_to(t).map_err(|e| e.to_string())?;
+        let s = sim.sensors();
+        let mut optional = [None; 8];
+        optional[0] = Some(s.gyro_body_radps.z.to_degrees());
+        optional[1] = Some(s.gyro_body_radps.y.to_degrees());
+        optional[2] = Some(s.gyro_body_radps.x.to_degrees());
+        out.push(MeasurementRow {
+            time_s: t,
+            port_pct: cmd.port,
+            starboard_pct: cmd.starboard,
+            vertical_pct: cmd.vertical,
+            depth_m: s.depth_from_pressure_m,
+            heading_deg: s.heading_rad.to_degrees(),
+            pitch_deg: s.pitch_rad.to_degrees(),
+            roll_deg: s.roll_rad.to_degrees(),
+            optional,
+        });
+    }
+    Ok(out)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use rov_dynamics::ThrustPct;
-    use rov_sim::{FaultSpec, SimConfig, Simulator};
-
-    /// 10 Hz rows of model 3 flown open loop through slow command changes, with a 0.8-m
-    /// depth-sensor jump at 150 s.
+    /// The dive with a 0.8-m depth-sensor jump at 150 s.
     fn rows() -> Vec<MeasurementRow> {
-        let mut sim = Simulator::new(SimConfig::default_model3().unwrap(), 3).unwrap();
-        sim.set_faults(vec![FaultSpec::parse("depth-sensor:jump:0.8@150").unwrap()]);
-        let mut out = Vec::new();
-        for k in 0..2000 {
-            let t = f64::from(k) * 0.1;
-            let phase = (t / 7.0).sin();
-            let cmd = ThrustPct {
-                port: 30.0 + 15.0 * phase,
-                starboard: 30.0 - 15.0 * phase,
-                vertical: 10.0 * (t / 11.0).cos(),
-            };
-            sim.set_command(cmd).unwrap();
-            sim.advance_to(t).unwrap();
-            let s = sim.sensors();
-            let mut optional = [None; 8];
-            optional[0] = Some(s.gyro_body_radps.z.to_degrees());
-            optional[1] = Some(s.gyro_body_radps.y.to_degrees());
-            optional[2] = Some(s.gyro_body_radps.x.to_degrees());
-            out.push(MeasurementRow {
-                time_s: t,
-                port_pct: cmd.port,
-                starboard_pct: cmd.starboard,
-                vertical_pct: cmd.vertical,
-                depth_m: s.depth_from_pressure_m,
-                heading_deg: s.heading_rad.to_degrees(),
-                pitch_deg: s.pitch_rad.to_degrees(),
-                roll_deg: s.roll_rad.to_degrees(),
-                optional,
-            });
-        }
-        out
+        simulated_rows(2000, &["depth-sensor:jump:0.8@150"]).unwrap()
     }
 
     fn model3() -> LabModel {
