@@ -2,5 +2,6 @@
 //! its own test binary; one binary links once). Run one module with
 //! `cargo test -p CRATE --test it MODULE::`.
 
+mod faults;
 mod reference;
 mod simulator;
