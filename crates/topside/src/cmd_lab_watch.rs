@@ -6,14 +6,16 @@
 //! A session is streamed row by row (an 8-hour dive in bounded memory, like the station
 //! feeds its own watch); a CSV or a mapped log is read whole. JSON (pinned):
 //! `{"alerts": [{"t_s", "kind", "channel", "size_noise", "causes": [{"cause", "size",
-//! "unit", "score"}]}]}`, `t_s` seconds from the log's start, causes best first.
+//! "unit", "score"}]}]}`, `t_s` seconds from the log's start, causes best first; plus
+//! `judged_s`, the seconds judged after the watch's first minute (0: not judged at all,
+//! the log was too short).
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use anyhow::Context as _;
 use clap::Args;
-use rov_lab::watch::{Alert, Watch, WatchConfig, WatchStats, alerts_json};
+use rov_lab::watch::{Alert, Watch, WatchConfig, WatchStats, watch_json};
 use rov_types::measurement::MeasurementRow;
 
 /// `topside lab watch`.
@@ -137,10 +139,18 @@ pub fn watch_file(
 
 /// Prints alerts for a person.
 pub fn print_alerts(alerts: &[Alert], stats: &WatchStats) {
-    if alerts.is_empty() {
+    let cfg = WatchConfig::default();
+    if stats.judged_hops == 0 {
         println!(
-            "no alert: the vehicle behaved like its model ({} rows, {} evaluations)",
-            stats.rows, stats.hops
+            "not judged: the log ({} rows) is shorter than the watch's first {:.0} s, in which it learns its noise floor",
+            stats.rows,
+            cfg.history_s + cfg.baseline_s
+        );
+    } else if alerts.is_empty() {
+        println!(
+            "no alert: the vehicle behaved like its model over {:.0} s judged ({} rows)",
+            stats.judged_hops as f64 * cfg.hop_s,
+            stats.rows
         );
     }
     for a in alerts {
@@ -176,7 +186,7 @@ pub fn run(a: WatchArgs) -> anyhow::Result<ExitCode> {
     let map = crate::cmd_lab::load_map(a.map.as_deref())?;
     let (alerts, stats) = watch_file(&a.file, model, map.as_ref())?;
     if a.json {
-        println!("{}", alerts_json(&alerts));
+        println!("{}", watch_json(&alerts, &stats, &WatchConfig::default()));
     } else {
         print_alerts(&alerts, &stats);
     }

@@ -491,8 +491,9 @@ fn watch_json(out: &std::path::Path, model: &rov_types::ModelId) -> serde_json::
             ),
         };
         let lab_model = rov_lab::load_model(model, text.as_deref())?;
-        let (alerts, _) = crate::cmd_lab_watch::watch_file(out, lab_model, None)?;
-        let mut j = rov_lab::watch::alerts_json(&alerts);
+        let (alerts, stats) = crate::cmd_lab_watch::watch_file(out, lab_model, None)?;
+        let mut j =
+            rov_lab::watch::watch_json(&alerts, &stats, &rov_lab::watch::WatchConfig::default());
         if let Some(o) = j.as_object_mut() {
             o.insert("model".into(), serde_json::Value::from(model.to_string()));
         }

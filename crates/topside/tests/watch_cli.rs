@@ -84,6 +84,9 @@ fn a_compass_disturbance_is_found_named_and_sized_and_a_clean_dive_raises_nothin
     // Fault-free: no alert of any kind, in the record summary and in `lab watch`.
     let (clean, j) = record("clean", &[]);
     assert_eq!(j["watch"]["alerts"], serde_json::json!([]), "{j}");
+    // Judged from the end of its first minute (12 s of history + 60 s) to the end.
+    let judged = j["watch"]["judged_s"].as_f64().unwrap();
+    assert!((280.0..=290.0).contains(&judged), "{judged}");
     assert_eq!(j["watch"]["model"], "model3");
     assert!(changes(&lab_watch(&clean)).is_empty());
     assert!(changes(&lab_watch(&export_csv(&clean))).is_empty());
@@ -194,6 +197,30 @@ fn a_model_that_is_merely_wrong_gives_one_mismatch_and_no_change() {
         alerts[0]["size_noise"].as_f64().unwrap() > 3.0,
         "{alerts:?}"
     );
+}
+
+#[test]
+fn a_log_shorter_than_the_first_minute_is_not_judged_and_says_so() {
+    let out = tmp("short30.mcap");
+    let o = topside()
+        .args([
+            "record",
+            "--sim",
+            "--fast",
+            "--duration-s",
+            "30",
+            "--video",
+            "none",
+        ])
+        .args(["--script", &script(), "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success());
+    let o = topside().args(["lab", "watch"]).arg(&out).output().unwrap();
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(text.contains("not judged"), "{text}");
+    assert_eq!(lab_watch(&out)["judged_s"], 0.0);
 }
 
 #[test]

@@ -226,6 +226,9 @@ pub struct WatchStats {
     pub hops_skipped: u64,
     /// Detections dismissed as smaller than `min_size_noise`.
     pub dismissed: u64,
+    /// Evaluations judged against a learned noise floor (none while the first baseline
+    /// is learned: a log shorter than `history_s + baseline_s` is not judged at all).
+    pub judged_hops: u64,
 }
 
 #[derive(Debug, Clone, Copy, Default)]
@@ -487,6 +490,7 @@ impl Watch {
             return Some(out);
         }
         self.holdoff_until_s = None;
+        self.stats.judged_hops += 1;
         // Change detection.
         let freeze_hops = (self.cfg.freeze_s / self.cfg.hop_s).ceil().max(1.0) as usize;
         let mut zs = [f64::NAN; 4];
@@ -838,4 +842,14 @@ pub fn watch_rows<'a>(
 /// The JSON document of `lab watch` and `record --json`'s `watch`: `{"alerts": [...]}`.
 pub fn alerts_json(alerts: &[Alert]) -> serde_json::Value {
     serde_json::json!({ "alerts": alerts })
+}
+
+/// [`alerts_json`] with how much of the log was judged: `judged_s`, seconds compared
+/// against a learned noise floor (0: the log was shorter than the watch's first minute,
+/// so "no alert" means "not judged").
+pub fn watch_json(alerts: &[Alert], stats: &WatchStats, cfg: &WatchConfig) -> serde_json::Value {
+    serde_json::json!({
+        "alerts": alerts,
+        "judged_s": stats.judged_hops as f64 * cfg.hop_s,
+    })
 }
