@@ -32,7 +32,7 @@ use crate::model::LabModel;
 use crate::params::{Axis, Param, Thr};
 
 use super::features::{
-    Chunk, Hop, Trajectory, chunk, diff, residual_features, sub_means, trajectory,
+    Chunk, Hop, Trajectory, chunk, chunk_between, diff, residual_features, sub_means, trajectory,
 };
 use super::noise::ChannelNoise;
 use super::{CHANNELS, SUB, WatchConfig};
@@ -64,6 +64,32 @@ pub struct CauseScore {
 }
 
 impl CauseScore {
+    /// Folds a follow-on fit of the same physical cause (measured against the model that
+    /// already adopted this one) into this one: weights and pulls add, drag factors and
+    /// remaining thrust multiply.
+    pub(crate) fn fold(&mut self, next: &CauseScore) {
+        let (Some((cause, a)), Some((_, b))) = (self.fitted.as_ref(), next.fitted.as_ref()) else {
+            return;
+        };
+        let cause = *cause;
+        let at = |v: &Vec<f64>, i: usize| v.get(i).copied().unwrap_or(0.0);
+        let theta: Vec<f64> = match cause {
+            Cause::ThrustLoss(_) => vec![1.0 - (1.0 - at(a, 0)) * (1.0 - at(b, 0))],
+            Cause::Drag => vec![(1.0 + at(a, 0)) * (1.0 + at(b, 0)) - 1.0],
+            Cause::Snag => vec![at(a, 0) + at(b, 0), at(a, 1) + at(b, 1)],
+            _ => vec![at(a, 0) + at(b, 0)],
+        };
+        let size = match cause {
+            Cause::Snag => at(&theta, 0).hypot(at(&theta, 1)),
+            Cause::Drag => 1.0 + at(&theta, 0),
+            _ => at(&theta, 0),
+        };
+        self.size = round_sig(size);
+        self.words = cause.words(size, &theta);
+        self.score = self.score.max(next.score);
+        self.fitted = Some((cause, theta));
+    }
+
     /// A sensor cause measured as a step of the reading at `from_s`.
     pub(crate) fn set_step(&mut self, size: f64, from_s: f64) {
         let cause = if self.cause == "depth-sensor" {
@@ -292,10 +318,32 @@ pub(crate) struct FitInput<'a> {
     pub frozen: Option<usize>,
 }
 
+/// The chunk a change is fitted on: after the onset only, so the changed model never
+/// flies the time before the change. Its unmeasured velocities at the onset come from the
+/// nominal model's run over the full history (the vehicle was nominal until then). A
+/// window too close to the onset for that keeps the full history.
+fn post_onset_chunk(input: &FitInput<'_>, t_end_s: f64) -> Option<Chunk> {
+    let full = chunk(input.rows, input.present, t_end_s, input.cfg)?;
+    let start = input.onset_s;
+    let straddles = full.run.t.first().is_some_and(|t0| *t0 < start - 0.5);
+    if !input.subtract_mu || !straddles || t_end_s - start < input.cfg.window_s + 0.5 {
+        return Some(full);
+    }
+    let Some(mut short) = chunk_between(input.rows, input.present, start, t_end_s, input.cfg)
+    else {
+        return Some(full);
+    };
+    let k = full.run.t.iter().position(|t| *t >= start - 1e-9)?;
+    let states = crate::sim::simulate_states(input.model, &full.run, &[]).ok()?;
+    let nu = states.get(k)?.state.nu;
+    short.run.nu0 = [nu[0], nu[1], nu[2], nu[3], nu[4], nu[5]];
+    Some(short)
+}
+
 fn prepare(input: &FitInput<'_>) -> Vec<Prepared> {
     let mut out = Vec::new();
     for h in input.hops {
-        let Some(c) = chunk(input.rows, input.present, h.t_s, input.cfg) else {
+        let Some(c) = post_onset_chunk(input, h.t_s) else {
             continue;
         };
         let Some(traj) = trajectory(input.model, &c) else {

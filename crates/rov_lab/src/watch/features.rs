@@ -53,7 +53,17 @@ pub(crate) fn chunk(
     t_end_s: f64,
     cfg: &WatchConfig,
 ) -> Option<Chunk> {
-    let t_start = t_end_s - cfg.history_s;
+    chunk_between(rows, present, t_end_s - cfg.history_s, t_end_s, cfg)
+}
+
+/// [`chunk`] over `[t_start, t_end]` (a history shorter than `history_s`).
+pub(crate) fn chunk_between(
+    rows: &[MeasurementRow],
+    present: [bool; 8],
+    t_start: f64,
+    t_end_s: f64,
+    cfg: &WatchConfig,
+) -> Option<Chunk> {
     let picked: Vec<MeasurementRow> = rows
         .iter()
         .filter(|r| r.time_s >= t_start - 1e-9 && r.time_s <= t_end_s + 1e-9)

@@ -164,6 +164,10 @@ pub struct Alert {
     pub causes: Vec<CauseScore>,
     /// When the watch raised it, s from the log's start.
     pub detected_s: f64,
+    /// How many follow-on detections of the same cause were folded into it (0: none).
+    /// A change the first fit under-sized leaves a residual of the same kind; it refines
+    /// this alert instead of raising another.
+    pub refined: u32,
 }
 
 impl Alert {
@@ -712,6 +716,7 @@ impl Watch {
             size_noise: round2(rms / n.sensor_floor.max(1e-12)),
             causes,
             detected_s: self.rel(t),
+            refined: 0,
         };
         self.alerts.push(alert.clone());
         Some(alert)
@@ -794,8 +799,25 @@ impl Watch {
             size_noise: round2(size),
             causes,
             detected_s: self.rel(t),
+            refined: 0,
         };
         self.adopt(&alert, p.channel, t);
+        // The same cause again within `relearn_s` of the last change: the first fit
+        // under-sized it (it sees only seconds of the change); fold the rest in.
+        if let Some(last) = self.alerts.last_mut()
+            && last.kind == AlertKind::Change
+            && alert.detected_s - last.detected_s <= self.cfg.relearn_s
+            && let (Some(a), Some(b)) = (last.causes.first_mut(), alert.causes.first())
+            && a.cause == b.cause
+            && a.is_physical()
+            && b.score >= 0.5
+        {
+            a.fold(b);
+            last.size_noise = last.size_noise.max(alert.size_noise);
+            last.detected_s = alert.detected_s;
+            last.refined += 1;
+            return Some(last.clone());
+        }
         self.alerts.push(alert.clone());
         Some(alert)
     }
