@@ -142,9 +142,22 @@ fn split_series(s: &MeasurementSeries) -> (MeasurementSeries, MeasurementSeries)
 /// # Errors
 /// A message when the file cannot be read or has too little data.
 pub fn load(path: &Path) -> Result<LabData, String> {
+    load_window(path, None)
+}
+
+/// [`load`], keeping only the rows of `window` (s from the log's start) when given: the
+/// stretch around a model-watch alert ("Open in lab").
+///
+/// # Errors
+/// A message when the file cannot be read or the window holds too little data.
+pub fn load_window(path: &Path, window: Option<(f64, f64)>) -> Result<LabData, String> {
     let name = path
         .file_name()
         .map_or_else(|| "data".to_string(), |n| n.to_string_lossy().into_owned());
+    let name = match window {
+        Some((a, b)) => format!("{name} [{a:.0}–{b:.0} s]"),
+        None => name,
+    };
     let is_mcap = path
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("mcap"));
@@ -163,6 +176,13 @@ pub fn load(path: &Path) -> Result<LabData, String> {
         let w = s.warnings.clone();
         (s, None, w)
     };
+    let mut series = series;
+    if let Some((from_s, to_s)) = window {
+        let t0 = series.rows.first().map_or(0.0, |r| r.time_s);
+        series
+            .rows
+            .retain(|r| r.time_s - t0 >= from_s && r.time_s - t0 <= to_s);
+    }
     let (a, b) = split_series(&series);
     let run = |s: &MeasurementSeries, label: &str| -> Result<Run, String> {
         let mut r = Run::from_series(s, label).map_err(|e| e.to_string())?;
@@ -312,8 +332,13 @@ impl LabState {
 
     /// Loads a file in the background.
     pub fn start_load(&mut self, path: &Path) {
+        self.start_load_window(path, None);
+    }
+
+    /// Loads a window of a file (s from its start) in the background.
+    pub fn start_load_window(&mut self, path: &Path, window: Option<(f64, f64)>) {
         let p = path.to_path_buf();
-        self.spawn("loading", move || match load(&p) {
+        self.spawn("loading", move || match load_window(&p, window) {
             Ok(d) => LabResult::Loaded(d),
             Err(e) => LabResult::Failed(e),
         });

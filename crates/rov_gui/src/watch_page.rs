@@ -23,6 +23,11 @@ const KINDS: [(&str, &str, f64); 6] = [
 
 const THRUSTERS: [&str; 3] = ["port", "starboard", "vertical"];
 
+/// "Open in lab" takes this much of the recording before an alert, s.
+const OPEN_BEFORE_S: f64 = 120.0;
+/// ... and this much after it (or to the end of the recording so far), s.
+const OPEN_AFTER_S: f64 = 60.0;
+
 /// The fault form's state.
 #[derive(Debug, Clone, PartialEq)]
 pub struct FaultForm {
@@ -97,19 +102,45 @@ fn body(app: &mut StationApp, ui: &mut Ui, w: &rov_station::runtime::view::Watch
     if w.alerts.is_empty() {
         ui.label("The vehicle behaves like its model.");
     }
-    for a in w.alerts.iter().rev().take(4) {
+    // The recording's start on the station's clock: an alert's window in the session.
+    let rec = &app.live_view.recording;
+    let rec_start_s = rec
+        .path
+        .as_ref()
+        .map(|p| (p.clone(), app.live_view.snapshot.time_s - rec.elapsed_s));
+    for (k, a) in w.alerts.iter().rev().take(4).enumerate() {
         let (tag, color) = if a.kind == "change" {
             ("CHANGE", theme::AMBER)
         } else {
             ("MISMATCH", theme::DIM)
         };
-        ui.label(
-            RichText::new(format!(
-                "{tag} {} T+{:.0} s: {} ({:.1} noise floors)",
-                a.channel, a.since_s, a.words, a.size_noise
-            ))
-            .color(color),
-        );
+        ui.horizontal(|ui| {
+            ui.label(
+                RichText::new(format!(
+                    "{tag} {} T+{:.0} s: {} ({:.1} noise floors)",
+                    a.channel, a.since_s, a.words, a.size_noise
+                ))
+                .color(color),
+            );
+            // Two minutes before the alert and one after, from the recording so far.
+            if let Some((path, start_s)) = &rec_start_s {
+                let from_s = (a.since_s - start_s - OPEN_BEFORE_S).max(0.0);
+                let to_s = a.since_s - start_s + OPEN_AFTER_S;
+                if to_s > 0.0
+                    && ui
+                        .button("Open in lab")
+                        .on_hover_text(format!(
+                            "the recording from {from_s:.0} s to {to_s:.0} s into the Model lab tab"
+                        ))
+                        .clicked()
+                {
+                    app.lab.path = path.display().to_string();
+                    app.lab.start_load_window(path, Some((from_s, to_s)));
+                    app.tab = crate::app::Tab::Lab;
+                    app.message = Some(format!("alert {} opened in the lab", k + 1));
+                }
+            }
+        });
     }
     if app.live_view.source != Source::Sim {
         return;

@@ -516,4 +516,16 @@ fn an_injected_fault_shows_in_the_alarm_strip_in_words() {
         "the section lists it"
     );
     r.snapshot("settings_model_watch");
+    // "Open in lab": the recording around the alert, in the Model lab tab.
+    r.click("Open in lab");
+    for _ in 0..100 {
+        r.run(0.1);
+        if r.has_label_containing("watch.mcap [") {
+            break;
+        }
+    }
+    let names = r.labels_containing("watch.mcap [");
+    // The window: two minutes before the alert (from 0 here) to one after; the lab
+    // says what it loaded (no snapshot: the page shows this machine's path).
+    assert!(names.iter().any(|n| n.contains("[0–")), "{names:?}");
 }
