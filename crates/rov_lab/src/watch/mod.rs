@@ -617,8 +617,18 @@ impl Watch {
                 _ => None,
             };
             if let Some(i) = sensor.or(Some(channel)) {
-                self.disabled[i] = true;
-                self.noise[i] = None;
+                // A bad depth reading also misleads the pitch prediction (the windows
+                // start from it, and the depth hold now flies the vehicle by it): both
+                // leave the watch. A bad compass only takes heading out.
+                let out: &[usize] = if i == 0 { &[0, 2] } else { &[i] };
+                for &k in out {
+                    if let Some(d) = self.disabled.get_mut(k) {
+                        *d = true;
+                    }
+                    if let Some(n) = self.noise.get_mut(k) {
+                        *n = None;
+                    }
+                }
                 if i < 2 {
                     self.steps.disable(i);
                 }
