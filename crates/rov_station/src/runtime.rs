@@ -349,13 +349,13 @@ pub enum RuntimeError {
 }
 
 /// A fresh recording file in `dir`: `session-<unix time>.mcap` (one naming rule for the
-/// REC button, the gamepad and `topside`). Creates the folder.
+/// REC button, the gamepad and `topside`). The recorder makes the folder when it starts
+/// (and says so when it cannot).
 #[must_use]
 pub fn recording_path_in(dir: &Path) -> PathBuf {
     let secs = std::time::SystemTime::now()
         .duration_since(std::time::UNIX_EPOCH)
         .map_or(0, |d| d.as_secs());
-    let _ = std::fs::create_dir_all(dir);
     let mut p = dir.join(format!("session-{secs}.mcap"));
     let mut k = 1;
     while p.exists() {

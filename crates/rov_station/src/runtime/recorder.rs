@@ -245,6 +245,12 @@ impl Recorder {
         started_us: u64,
         blocking: bool,
     ) -> Result<Self, String> {
+        // The folder is made here, where its failure can be said (a read-only disk, a
+        // file where the folder should be), not dropped while the file is named.
+        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+            std::fs::create_dir_all(dir)
+                .map_err(|e| format!("cannot create the folder {}: {e}", dir.display()))?;
+        }
         let writer = SessionWriter::create(path, info, 0).map_err(|e| e.to_string())?;
         let (tx, rx) = sync_channel(QUEUE_CAPACITY);
         let counters = Arc::new(Counters::default());
@@ -486,5 +492,37 @@ mod order_tests {
         a.extend(r.push(RecordItem::Raw(Direction::Rx, 5, vec![])));
         a.extend(r.drain());
         assert!(matches!(a[0], RecordItem::Raw(Direction::Tx, ..)));
+    }
+}
+
+#[cfg(test)]
+mod folder_tests {
+    use super::*;
+
+    fn info() -> SessionInfo {
+        SessionInfo {
+            vehicle: "sim".into(),
+            software_version: "test".into(),
+            started_unix_s: 0.0,
+            config_toml: String::new(),
+        }
+    }
+
+    #[test]
+    fn the_folder_is_made_and_a_folder_that_cannot_be_is_named() {
+        let root = tempfile::tempdir().unwrap();
+        // A folder that does not exist yet is made.
+        let p = root.path().join("a/b/session.mcap");
+        let r = Recorder::start(&p, &info(), 0, true).unwrap();
+        drop(r);
+        assert!(root.path().join("a/b").is_dir());
+        // A file where the folder should be: the error names the folder and why.
+        std::fs::write(root.path().join("file"), b"x").unwrap();
+        let bad = root.path().join("file/sub/session.mcap");
+        let e = Recorder::start(&bad, &info(), 0, true).err().unwrap();
+        assert!(
+            e.contains("cannot create the folder") && e.contains("file/sub"),
+            "{e}"
+        );
     }
 }
