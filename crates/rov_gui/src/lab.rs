@@ -3,7 +3,9 @@
 //! effect, and watch the error fall.
 //!
 //! Every lab computation (loading, comparison, diagnosis, refits) runs on a worker
-//! thread; the GUI polls for the result and stays responsive.
+//! thread; the GUI polls for the result and stays responsive. While it runs, the tab
+//! shows the stage the lab reports ([`rov_lab::progress`]) and a Cancel that stops the
+//! work within a simulation of each worker.
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -16,6 +18,7 @@ use rov_lab::diagnose::{DiagnoseOptions, Diagnosis, Status, diagnose};
 use rov_lab::evaluate::evaluate;
 use rov_lab::lab::fit_with_effects;
 use rov_lab::lm::LmOptions;
+use rov_lab::progress::Progress;
 use rov_lab::{BaseKind, EffectId, LabModel, Run};
 use rov_types::measurement::MeasurementSeries;
 
@@ -80,6 +83,18 @@ pub enum LabResult {
     Added(Box<LabModel>, Comparison, String),
     /// Failure.
     Failed(String),
+    /// The pilot cancelled the work (nothing changed).
+    Cancelled(String),
+}
+
+/// Lab work running in the background.
+#[derive(Debug)]
+pub struct Busy {
+    /// What it does ("diagnosing").
+    pub label: String,
+    /// Its progress and cancel switch.
+    pub progress: Progress,
+    rx: Receiver<LabResult>,
 }
 
 /// State of the lab tab.
@@ -101,11 +116,14 @@ pub struct LabState {
     pub fall: Vec<(String, BTreeMap<String, f64>)>,
     /// Effects added by the pilot.
     pub added: Vec<EffectId>,
-    /// Work in progress (label, result channel).
-    pub busy: Option<(String, Receiver<LabResult>)>,
+    /// Work in progress.
+    pub busy: Option<Busy>,
+    /// What the last cancelled work was (shown instead of an error).
+    pub cancelled: Option<String>,
     /// Last error.
     pub error: Option<String>,
-    /// Worker threads for the diagnosis.
+    /// Worker threads of the lab's work (default: every core but one, which is left to
+    /// the station and the GUI).
     pub threads: usize,
 }
 
@@ -121,8 +139,9 @@ impl Default for LabState {
             fall: Vec::new(),
             added: Vec::new(),
             busy: None,
+            cancelled: None,
             error: None,
-            threads: 1,
+            threads: rov_lab::par::default_threads().saturating_sub(1).max(1),
         }
     }
 }
@@ -269,11 +288,15 @@ fn model_label(m: &LabModel) -> String {
 
 impl LabState {
     pub(crate) fn poll(&mut self) {
-        let Some((_, rx)) = &self.busy else {
+        let Some(busy) = &self.busy else {
             return;
         };
-        let Ok(r) = rx.try_recv() else {
-            return;
+        let r = match busy.rx.try_recv() {
+            Ok(r) => r,
+            Err(std::sync::mpsc::TryRecvError::Empty) => return,
+            Err(std::sync::mpsc::TryRecvError::Disconnected) => {
+                LabResult::Failed(format!("{}: the lab worker stopped", busy.label))
+            }
         };
         self.busy = None;
         match r {
@@ -305,6 +328,14 @@ impl LabState {
                 self.comparison = Some(c);
             }
             LabResult::Failed(e) => self.error = Some(e),
+            LabResult::Cancelled(what) => self.cancelled = Some(what),
+        }
+    }
+
+    /// Asks the running work to stop (its result is dropped; nothing changes).
+    pub fn cancel(&mut self) {
+        if let Some(b) = &self.busy {
+            b.progress.cancel();
         }
     }
 
@@ -315,16 +346,35 @@ impl LabState {
     }
 
     fn spawn(&mut self, label: &str, job: impl FnOnce() -> LabResult + Send + 'static) {
+        self.start_job(label, move |_| job());
+    }
+
+    /// Runs `job` on a worker thread with a fresh [`Progress`] current (the lab's stages
+    /// show on the tab; Cancel cancels it). A cancelled job's result is dropped.
+    pub fn start_job(
+        &mut self,
+        label: &str,
+        job: impl FnOnce(&Progress) -> LabResult + Send + 'static,
+    ) {
         let (tx, rx) = channel();
+        let progress = Progress::new();
+        let p = progress.clone();
+        let what = label.to_string();
         let spawned = std::thread::Builder::new()
             .name("lab-worker".into())
             .spawn(move || {
-                let _ = tx.send(job());
+                let r = p.run(|| Ok(job(&p))).unwrap_or(LabResult::Cancelled(what));
+                let _ = tx.send(r);
             });
         match spawned {
             Ok(_) => {
-                self.busy = Some((label.to_string(), rx));
+                self.busy = Some(Busy {
+                    label: label.to_string(),
+                    progress,
+                    rx,
+                });
                 self.error = None;
+                self.cancelled = None;
             }
             Err(e) => self.error = Some(format!("cannot start the lab worker: {e}")),
         }
@@ -458,6 +508,30 @@ impl LabState {
     }
 }
 
+/// The running work: what it does, the lab's stage with a bar when it is counted, and
+/// Cancel. Whether Cancel was clicked.
+fn busy_row(ui: &mut Ui, b: &Busy) -> bool {
+    ui.spinner();
+    if b.progress.is_cancelled() {
+        ui.label(RichText::new(format!("{}: cancelling…", b.label)).color(theme::AMBER));
+        return false;
+    }
+    let stage = b.progress.latest();
+    let text = match &stage {
+        Some(s) => format!("{}: {s}", b.label),
+        None => format!("{}…", b.label),
+    };
+    ui.label(RichText::new(text).color(theme::AMBER));
+    if let Some(s) = stage.filter(|s| s.total > 0) {
+        ui.add(
+            egui::ProgressBar::new(s.done as f32 / s.total as f32)
+                .desired_width(120.0)
+                .desired_height(10.0),
+        );
+    }
+    ui.button("Cancel").clicked()
+}
+
 fn status_badge(s: Status) -> (&'static str, Color32) {
     match s {
         Status::Significant => ("SIGNIFICANT", theme::GREEN),
@@ -539,11 +613,22 @@ pub(crate) fn lab_tab(app: &mut StationApp, ui: &mut Ui) {
         {
             lab.start_diagnose();
         }
-        if let Some((what, _)) = &lab.busy {
-            ui.spinner();
-            ui.label(RichText::new(format!("{what}... (background)")).color(theme::AMBER));
-        }
     });
+    // The running work on a line of its own (the controls' row is full).
+    let mut cancel = false;
+    if let Some(b) = &lab.busy {
+        ui.horizontal(|ui| cancel = busy_row(ui, b));
+    }
+    if cancel {
+        lab.cancel();
+    }
+    if let Some(what) = &lab.cancelled {
+        ui.label(
+            RichText::new(format!("{what} cancelled: nothing changed"))
+                .small()
+                .color(theme::DIM),
+        );
+    }
     if let Some(d) = &lab.data {
         ui.label(
             RichText::new(format!(

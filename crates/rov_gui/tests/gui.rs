@@ -419,3 +419,50 @@ fn wait_lab(r: &mut Rig, timeout_s: f64) -> usize {
     r.run(FRAME_S);
     frames
 }
+
+/// Lab work shows the stage the lab reports, with a bar when it is counted, and Cancel
+/// stops it: the worker's result is dropped and the tab says nothing changed.
+#[test]
+fn lab_work_shows_its_stage_and_cancel_stops_it() {
+    use rov_gui::lab::LabResult;
+    use rov_lab::progress::Stage;
+    let mut r = rig("lab_progress.mcap");
+    r.harness.state_mut().set_tab(Tab::Lab);
+    r.run(FRAME_S);
+    r.harness
+        .state_mut()
+        .lab_mut()
+        .start_job("diagnosing", |p| {
+            p.report(Stage {
+                name: "screening".into(),
+                done: 9,
+                total: 17,
+                unit: "sensitivities",
+            });
+            let t0 = Instant::now();
+            while !p.is_cancelled() && t0.elapsed() < Duration::from_secs(60) {
+                std::thread::sleep(Duration::from_millis(5));
+            }
+            LabResult::Failed("the job was not cancelled".into())
+        });
+    r.run(FRAME_S);
+    assert!(r.harness.state().lab().is_busy());
+    assert!(
+        r.harness
+            .query_by_label_contains("diagnosing: screening 9/17 sensitivities")
+            .is_some()
+    );
+    r.snapshot("lab_progress");
+    r.click("Cancel");
+    let t0 = Instant::now();
+    wait_lab(&mut r, 5.0);
+    assert!(t0.elapsed() < Duration::from_secs(2), "{:?}", t0.elapsed());
+    let lab = r.harness.state().lab();
+    assert!(lab.error.is_none(), "{:?}", lab.error);
+    assert_eq!(lab.cancelled.as_deref(), Some("diagnosing"));
+    assert!(
+        r.harness
+            .query_by_label_contains("diagnosing cancelled: nothing changed")
+            .is_some()
+    );
+}

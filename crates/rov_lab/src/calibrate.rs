@@ -726,10 +726,12 @@ fn staged_fit_from(
     let short = View::KStep(k);
     let shooting = View::Shooting(SHOOTING_WINDOW_S);
     let first_view = if short_first { short } else { shooting };
+    crate::progress::stage("calibrating", 1, 4, "stages");
     let mut short_fit = fit(model, runs, free, first_view, None, None, opts)?;
     if !short_fit.lm.converged {
         short_fit = fit(&short_fit.model, runs, free, first_view, None, None, opts)?;
     }
+    crate::progress::stage("calibrating", 2, 4, "stages");
     let mut noise_fit = fit(
         &short_fit.model,
         runs,
@@ -795,6 +797,7 @@ fn staged_fit_from(
     } else {
         (model, None)
     };
+    crate::progress::stage("calibrating", 3, 4, "stages");
     let first = fit_scaled(
         start,
         runs,
@@ -810,6 +813,7 @@ fn staged_fit_from(
     // Fresh Jacobians here: with channels down-weighted, parameters acting mostly on them
     // are weakly determined, and rank-one updates let them wander. Continued until
     // converged, like the noise-weighted stage.
+    crate::progress::stage("calibrating", 4, 4, "stages");
     let mut last = fit_scaled(
         &first.model,
         runs,

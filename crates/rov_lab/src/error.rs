@@ -79,4 +79,7 @@ pub enum LabError {
         /// What went wrong.
         detail: String,
     },
+    /// The work was cancelled (see [`crate::progress::Progress::cancel`]).
+    #[error("cancelled")]
+    Cancelled,
 }

@@ -172,7 +172,8 @@ pub fn compare(
     let k = (K_STEP_S / dt).round().max(1.0) as usize;
     let mut run_reports = Vec::new();
     let (mut free, mut shoot, mut kstep) = (Vec::new(), Vec::new(), Vec::new());
-    for run in runs {
+    for (i, run) in runs.iter().enumerate() {
+        crate::progress::stage("comparing", i + 1, runs.len(), "runs");
         let chans = compared_channels(&m, run);
         let pf = simulate_run(&m, run, &View::FreeRun.resets(run))?;
         let ps = simulate_run(&m, run, &View::Shooting(SHOOTING_WINDOW_S).resets(run))?;

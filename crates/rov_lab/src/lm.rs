@@ -1,5 +1,5 @@
 //! Bounded Levenberg–Marquardt on a residual vector, with forward-difference Jacobians
-//! evaluated on up to `threads` threads, optional Gaussian priors (ridge toward prior
+//! evaluated on up to `threads` workers of the lab's pool ([`crate::par`]), optional Gaussian priors (ridge toward prior
 //! values) and the Gauss–Newton covariance at the optimum.
 //!
 //! Parameters are scaled by their typical magnitude; a trial step is projected onto the
@@ -107,76 +107,69 @@ fn prior_cost(x: &[f64], b: &[Bound]) -> f64 {
         .sum()
 }
 
-/// Evaluates the Jacobian columns (natural units) by forward differences.
+/// The signed forward-difference step of size `h` at `x`: backwards when forwards would
+/// cross the upper bound `hi`.
+pub(crate) fn fd_step(x: f64, h: f64, hi: f64) -> f64 {
+    if x + h > hi { -h } else { h }
+}
+
+/// Writes the forward-difference column (r − r₀)/h into `col` (zeros when the
+/// evaluation failed or has another length); whether it succeeded.
+fn fd_column_into(col: &mut [f64], r0: &[f64], eval: Option<(f64, Vec<f64>)>) -> bool {
+    match eval {
+        Some((h, r)) if r.len() == r0.len() && col.len() == r0.len() => {
+            for ((v, a), c) in col.iter_mut().zip(&r).zip(r0) {
+                *v = (a - c) / h;
+            }
+            true
+        }
+        _ => {
+            col.iter_mut().for_each(|v| *v = 0.0);
+            false
+        }
+    }
+}
+
+/// The lab's one forward-difference Jacobian, as separate columns: `eval(i)` returns
+/// column i's signed step h and the residual at the stepped point (`None`: that column
+/// is missing). Columns are evaluated on up to `threads` workers ([`crate::par`]).
+pub(crate) fn fd_columns<F>(r0: &[f64], p: usize, threads: usize, eval: F) -> Vec<Option<Vec<f64>>>
+where
+    F: Fn(usize) -> Option<(f64, Vec<f64>)> + Sync + Send,
+{
+    crate::par::par_map(p, threads, |i| {
+        let mut col = vec![0.0; r0.len()];
+        fd_column_into(&mut col, r0, eval(i)).then_some(col)
+    })
+}
+
+/// [`fd_columns`] written straight into one matrix (a missing column stays zero).
+pub(crate) fn fd_matrix<F>(r0: &[f64], p: usize, threads: usize, eval: F) -> DMatrix<f64>
+where
+    F: Fn(usize) -> Option<(f64, Vec<f64>)> + Sync + Send,
+{
+    let n = r0.len();
+    let mut j = DMatrix::zeros(n, p);
+    if n > 0 {
+        crate::par::par_chunks_mut(j.as_mut_slice(), n, threads, |i, col| {
+            fd_column_into(col, r0, eval(i));
+        });
+    }
+    j
+}
+
+/// Evaluates the Jacobian (natural units) by forward differences.
 fn jacobian<F>(f: &F, x: &[f64], r0: &[f64], b: &[Bound], opts: &LmOptions) -> (DMatrix<f64>, usize)
 where
     F: Fn(&[f64]) -> Option<Vec<f64>> + Sync,
 {
     let p = x.len();
-    let n = r0.len();
-    // The step of column i and the point it is evaluated at.
-    let point = |i: usize| -> (f64, Vec<f64>) {
-        let mut h = b[i].scale * opts.fd_fraction;
-        if x[i] + h > b[i].hi {
-            h = -h;
-        }
+    let j = fd_matrix(r0, p, opts.threads, |i| {
+        let h = fd_step(x[i], b[i].scale * opts.fd_fraction, b[i].hi);
         let mut xp = x.to_vec();
         xp[i] += h;
-        (h, xp)
-    };
-    let col = |i: usize| -> Vec<f64> {
-        let (h, xp) = point(i);
-        match f(&xp) {
-            Some(r) if r.len() == n => r.iter().zip(r0).map(|(a, c)| (a - c) / h).collect(),
-            _ => vec![0.0; n],
-        }
-    };
-    let threads = opts.threads.max(1).min(p.max(1));
-    if threads <= 1 {
-        // Straight into the matrix, column by column.
-        let mut j = DMatrix::zeros(n, p);
-        for i in 0..p {
-            let (h, xp) = point(i);
-            if let Some(r) = f(&xp).filter(|r| r.len() == n) {
-                for ((v, a), c) in j.column_mut(i).iter_mut().zip(&r).zip(r0) {
-                    *v = (a - c) / h;
-                }
-            }
-        }
-        return (j, p);
-    }
-    let cols: Vec<Vec<f64>> = {
-        let mut out: Vec<Option<Vec<f64>>> = vec![None; p];
-        std::thread::scope(|s| {
-            let handles: Vec<_> = (0..threads)
-                .map(|w| {
-                    let col = &col;
-                    s.spawn(move || {
-                        (w..p)
-                            .step_by(threads)
-                            .map(|i| (i, col(i)))
-                            .collect::<Vec<_>>()
-                    })
-                })
-                .collect();
-            for h in handles {
-                if let Ok(v) = h.join() {
-                    for (i, c) in v {
-                        out[i] = Some(c);
-                    }
-                }
-            }
-        });
-        out.into_iter()
-            .map(|c| c.unwrap_or_else(|| vec![0.0; n]))
-            .collect()
-    };
-    let mut j = DMatrix::zeros(n, p);
-    for (i, c) in cols.iter().enumerate() {
-        for (k, v) in c.iter().enumerate() {
-            j[(k, i)] = *v;
-        }
-    }
+        f(&xp).map(|r| (h, r))
+    });
     (j, p)
 }
 

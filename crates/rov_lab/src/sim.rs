@@ -489,6 +489,8 @@ impl Drop for MemoScope<'_> {
 
 /// Simulates a run, re-initialising at the given sorted sample indices (0 is implied).
 pub fn simulate_run(model: &LabModel, run: &Run, resets: &[usize]) -> Result<Prediction, LabError> {
+    // Every simulation is a cancellation point (see `crate::progress`).
+    crate::progress::checkpoint()?;
     if run.channels != *model.channel_table() {
         // A run whose free channels the model names otherwise: read them by name.
         let mut r = run.clone();

@@ -117,6 +117,8 @@ pub struct CompareArgs {
     /// Write PNG plots into this directory.
     #[arg(long)]
     pub plots: Option<PathBuf>,
+    #[command(flatten)]
+    pub work: crate::lab_progress::WorkArgs,
 }
 
 /// `topside lab diagnose`.
@@ -141,6 +143,8 @@ pub struct DiagnoseArgs {
     /// Write PNG plots into this directory.
     #[arg(long)]
     pub plots: Option<PathBuf>,
+    #[command(flatten)]
+    pub work: crate::lab_progress::WorkArgs,
 }
 
 /// `topside lab add`.
@@ -175,6 +179,8 @@ pub struct AddArgs {
     /// Write PNG plots into this directory.
     #[arg(long)]
     pub plots: Option<PathBuf>,
+    #[command(flatten)]
+    pub work: crate::lab_progress::WorkArgs,
 }
 
 /// `topside lab effects|models`.
@@ -184,8 +190,6 @@ pub struct ListArgs {
     #[arg(long)]
     pub json: bool,
 }
-
-const THREADS: usize = 2;
 
 /// Loads a model argument (`model1`, `model2`, `model3` or `FILE.toml`: a base-model
 /// file, a vehicle definition or a saved extended model): the one loader of `lab`,
@@ -344,7 +348,9 @@ fn run_compare(a: CompareArgs) -> anyhow::Result<ExitCode> {
         Some(s) => parse_effect_list(s)?,
         None => Vec::new(),
     };
-    let report = compare(&model, &a.model, &runs, &effects, THREADS)?;
+    let threads = a.work.threads();
+    let report =
+        crate::lab_progress::with_progress(|| compare(&model, &a.model, &runs, &effects, threads))?;
     if let Some(dir) = &a.plots {
         let mut pngs = Vec::new();
         for (i, run) in runs.iter().enumerate() {
@@ -444,10 +450,10 @@ fn run_diagnose(a: DiagnoseArgs) -> anyhow::Result<ExitCode> {
     let train = load_runs(&a.data, map.as_ref())?;
     let val = load_runs(&a.validate, map.as_ref())?;
     let opts = DiagnoseOptions {
-        threads: THREADS,
+        threads: a.work.threads(),
         ..Default::default()
     };
-    let d = diagnose(&model, &a.model, &train, &val, &opts)?;
+    let d = crate::lab_progress::with_progress(|| diagnose(&model, &a.model, &train, &val, &opts))?;
     if let Some(dir) = &a.plots {
         let base = rov_lab::evaluate::evaluate(&d.calibrated, &val)?;
         let fin = rov_lab::evaluate::evaluate(&d.final_model, &val)?;
@@ -608,7 +614,10 @@ fn run_add(a: AddArgs) -> anyhow::Result<ExitCode> {
     let map = load_map(a.map.as_deref())?;
     let train = load_runs(&a.data, map.as_ref())?;
     let val = load_runs(&a.validate, map.as_ref())?;
-    let r = add_with_terms(&model, &a.model, &effects, &terms, &train, &val, THREADS)?;
+    let threads = a.work.threads();
+    let r = crate::lab_progress::with_progress(|| {
+        add_with_terms(&model, &a.model, &effects, &terms, &train, &val, threads)
+    })?;
     if let Some(path) = &a.save
         && let Some(m) = &r.model_fitted
     {

@@ -42,7 +42,7 @@ pub fn run(a: CvArgs) -> anyhow::Result<ExitCode> {
         &model,
         &runs,
         &LmOptions {
-            threads: 2,
+            threads: rov_lab::par::default_threads(),
             ..Default::default()
         },
         a.window_s,

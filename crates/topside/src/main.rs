@@ -24,6 +24,7 @@ mod cmd_station;
 mod cmd_vehicle;
 mod config_file;
 mod foxglove_ws;
+mod lab_progress;
 
 use clap::{Parser, Subcommand};
 

@@ -151,7 +151,9 @@ impl<'a> Greedy<'a> {
             scales: &self.scales,
             closed_loop: self.closed_loop,
         };
+        let counter = crate::progress::Counter::start("confirming", top.len(), "candidates");
         let stage1: Vec<(Confirmed, Judgement)> = par_map(top.len(), self.threads, |i| {
+            let _tick = super::screening::TickOnDrop(&counter);
             confirm_stage1(
                 &self.current,
                 &self.current_eval,

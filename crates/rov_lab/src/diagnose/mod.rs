@@ -144,7 +144,8 @@ pub const AMBIGUITY_COSINE: f64 = 0.9;
 /// Options of [`diagnose`].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct DiagnoseOptions {
-    /// Worker threads (1 = serial).
+    /// Worker threads (1 = serial; default: every core). The result is the same for
+    /// any count ([`crate::par`]).
     pub threads: usize,
     /// Most effects accepted.
     pub max_effects: usize,
@@ -163,7 +164,7 @@ pub struct DiagnoseOptions {
 impl Default for DiagnoseOptions {
     fn default() -> Self {
         Self {
-            threads: 2,
+            threads: crate::par::default_threads(),
             max_effects: 3,
             confirm_first: 3,
             confirm_later: 2,
@@ -997,6 +998,12 @@ pub fn add_to_model(
     let mut steps = Vec::new();
     let mut notes = Vec::new();
     for (round, e) in effects.iter().enumerate() {
+        crate::progress::stage(
+            format!("adding {}", e.key()),
+            round + 1,
+            effects.len(),
+            "effects",
+        );
         let cand = match availability(&g.current, train, *e) {
             Availability::Candidate(c) => c,
             Availability::Contained(why) => {

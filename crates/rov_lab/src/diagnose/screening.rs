@@ -17,9 +17,11 @@ use crate::params::{Param, axis_params_of};
 
 use super::*;
 
-/// The Jacobian of the objective's residual w.r.t. parameters at `model` (forward
-/// differences, `threads` workers).
+/// The Jacobian of the objective's residual w.r.t. parameters at `model` (the lab's one
+/// forward-difference Jacobian, [`crate::lm::fd_columns`], on `threads` workers), reported
+/// as the progress stage `stage`.
 pub(super) fn jacobian_cols(
+    stage: &str,
     model: &LabModel,
     obj: &Objective<'_>,
     r0: &[f64],
@@ -27,56 +29,27 @@ pub(super) fn jacobian_cols(
     steps: &[f64],
     threads: usize,
 ) -> Vec<Option<Vec<f64>>> {
-    let col = |i: usize| -> Option<Vec<f64>> {
-        let p = params[i];
+    let counter = crate::progress::Counter::start(stage, params.len(), "sensitivities");
+    crate::lm::fd_columns(r0, params.len(), threads, |i| {
+        let _tick = TickOnDrop(&counter);
+        let p = *params.get(i)?;
         let v0 = model.get(p).or_else(|| p.off_value()).unwrap_or(0.0);
-        let meta = p.meta();
-        let mut h = steps[i];
-        if v0 + h > meta.hi {
-            h = -h;
-        }
+        let h = crate::lm::fd_step(v0, *steps.get(i)?, p.meta().hi);
         let m = model.with(&[p], &[v0 + h]).ok()?;
         let r = obj.residuals(&m).ok()?;
-        Some(r.iter().zip(r0).map(|(a, b)| (a - b) / h).collect())
-    };
-    par_map(params.len(), threads, col)
+        Some((h, r))
+    })
 }
 
-/// Runs `f(0..n)` on `threads` workers, keeping order.
-pub(crate) fn par_map<T: Send, F: Fn(usize) -> T + Sync>(n: usize, threads: usize, f: F) -> Vec<T> {
-    let threads = threads.max(1).min(n.max(1));
-    if threads <= 1 {
-        return (0..n).map(f).collect();
+pub(crate) use crate::par::par_map;
+
+/// Ticks its counter when dropped (an item counts as done however it ended).
+pub(super) struct TickOnDrop<'a>(pub(super) &'a crate::progress::Counter);
+
+impl Drop for TickOnDrop<'_> {
+    fn drop(&mut self) {
+        self.0.tick();
     }
-    let mut out: Vec<Option<T>> = (0..n).map(|_| None).collect();
-    std::thread::scope(|s| {
-        let handles: Vec<_> = (0..threads)
-            .map(|w| {
-                let f = &f;
-                s.spawn(move || {
-                    (w..n)
-                        .step_by(threads)
-                        .map(|i| (i, f(i)))
-                        .collect::<Vec<_>>()
-                })
-            })
-            .collect();
-        for h in handles {
-            if let Ok(v) = h.join() {
-                for (i, x) in v {
-                    out[i] = Some(x);
-                }
-            }
-        }
-    });
-    let mut res = Vec::with_capacity(n);
-    for (i, x) in out.into_iter().enumerate() {
-        match x {
-            Some(v) => res.push(v),
-            None => res.push(f(i)),
-        }
-    }
-    res
 }
 
 #[derive(Debug, Clone)]
@@ -343,7 +316,15 @@ pub(super) fn screen(
         .collect();
     let miss_params: Vec<Param> = missing.iter().map(|i| all[*i]).collect();
     let miss_steps: Vec<f64> = missing.iter().map(|i| steps[*i]).collect();
-    let new_cols = jacobian_cols(model, &obj, &r0, &miss_params, &miss_steps, threads);
+    let new_cols = jacobian_cols(
+        "screening",
+        model,
+        &obj,
+        &r0,
+        &miss_params,
+        &miss_steps,
+        threads,
+    );
     for (p, c) in miss_params.iter().zip(new_cols) {
         if let Some(c) = c
             && c.len() == n

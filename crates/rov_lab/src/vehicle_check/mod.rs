@@ -27,7 +27,7 @@ use serde::Serialize;
 use crate::LabError;
 
 /// Names of the six degrees of freedom (τ and ν order).
-pub const DOF_NAMES: [&str; 6] = ["surge", "sway", "heave", "roll", "pitch", "yaw"];
+pub use crate::terms::DOF_NAMES;
 
 /// A channel's share of an axis below which the file is taken to say it does not move that
 /// axis.

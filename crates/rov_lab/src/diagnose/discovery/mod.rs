@@ -226,7 +226,15 @@ pub(super) fn search(
         let obj = Objective::scaled(model, train, view, scales.of(view));
         let r0 = obj.residuals(model)?;
         let steps: Vec<f64> = fixed.iter().map(|p| p.meta().scale).collect();
-        jacobian_cols(model, &obj, &r0, &fixed, &steps, threads)
+        jacobian_cols(
+            "term search: base",
+            model,
+            &obj,
+            &r0,
+            &fixed,
+            &steps,
+            threads,
+        )
     };
     // (DOF, residual, residual with the base projected out, its N_eff, base columns).
     // The null every term must beat is a refit of the base: the calibrated parameters
@@ -274,7 +282,17 @@ pub(super) fn search(
         let n_eff = effective_n(&r0p, r0p.len().max(2));
         homes.push((dof, r0, r0p, n_eff, null));
     }
+    let dofs: Vec<&str> = homes
+        .iter()
+        .filter_map(|(d, ..)| crate::terms::DOF_NAMES.get(*d as usize).copied())
+        .collect();
+    let counter = crate::progress::Counter::start(
+        format!("term search: {}", dofs.join(", ")),
+        shortlist.len(),
+        "terms",
+    );
     let gains: Vec<Option<TermPick>> = par_map(shortlist.len(), threads, |i| {
+        let _tick = super::screening::TickOnDrop(&counter);
         let (t, inclusion) = &shortlist[i];
         let (_, raw, r0, n_eff, null) = homes.iter().find(|(d, ..)| *d == t.dof)?;
         let mut m = model.clone();
