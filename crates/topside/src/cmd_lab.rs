@@ -323,14 +323,16 @@ fn print_summary_table(title: &str, m: &std::collections::BTreeMap<String, Chann
         "  {:<10} {:>9} {:>10} {:>9} {:>10} {:>9}",
         "channel", "fit %", "RMSE", "fit % fr", "RMSE fr", "noise"
     );
+    // A view that could not be computed reads "—" (null in the JSON).
+    let rmse = |x: Option<f64>| x.map_or_else(|| "—".into(), |v| format!("{v:.4}"));
     for (k, c) in m {
         println!(
-            "  {:<10} {} {:>10.4} {} {:>10.4} {:>9.4}",
+            "  {:<10} {} {:>10} {} {:>10} {:>9.4}",
             k,
             fmt_opt(c.fit_pct),
-            c.rmse,
+            rmse(c.rmse_shooting),
             fmt_opt(c.fit_pct_free_run),
-            c.rmse_free_run,
+            rmse(c.rmse_free_run),
             c.noise
         );
     }

@@ -470,3 +470,87 @@ fn add_terms_saves_a_model_that_carries_them() {
         "term:heave:warp",
     );
 }
+
+/// Every per-channel summary of `lab compare`, `add` and `diagnose` carries both error
+/// views under explicit keys; `rmse` keeps its meaning (multiple shooting in all three:
+/// in `diagnose`'s `baseline` too), and on a model with a missing effect the free run (which integrates the
+/// error) and multiple shooting (re-started from the measurement every window) differ.
+#[test]
+fn summaries_name_both_error_views() {
+    let (train, val) = (tmp("views_train.csv"), tmp("views_val.csv"));
+    hidden_arm_csv(&train, 7, 120.0);
+    hidden_arm_csv(&val, 8, 60.0);
+    let (t, v) = (train.to_str().unwrap(), val.to_str().unwrap());
+    let f = |c: &serde_json::Value, key: &str| -> f64 {
+        c[key]
+            .as_f64()
+            .unwrap_or_else(|| panic!("{key} missing: {c}"))
+    };
+    // The summary's two views are the pooled views' own numbers, and `rmse` is shooting.
+    let check = |summary: &serde_json::Value, what: &str| {
+        let chans = summary.as_object().unwrap();
+        assert!(!chans.is_empty(), "{what}: no channels");
+        for (ch, c) in chans {
+            assert_eq!(f(c, "rmse"), f(c, "rmse_shooting"), "{what} {ch}: {c}");
+            assert!(f(c, "rmse_free_run") > 0.0, "{what} {ch}: {c}");
+        }
+    };
+    let c = json(&["lab", "compare", "--model", "model3", "--data", v, "--json"]);
+    check(&c["channels"], "compare");
+    for ch in ["depth", "heading", "pitch", "roll"] {
+        let s = &c["channels"][ch];
+        assert_eq!(
+            f(s, "rmse_free_run"),
+            f(&c["pooled"]["free_run"]["channels"][ch], "rmse"),
+            "{ch}"
+        );
+        assert_eq!(
+            f(s, "rmse_shooting"),
+            f(&c["pooled"]["shooting"]["channels"][ch], "rmse"),
+            "{ch}"
+        );
+    }
+    // Heading integrates the yaw rate: a model error accumulates over the free run but
+    // only over one window in multiple shooting, so the free run's error is larger.
+    let h = &c["channels"]["heading"];
+    assert!(
+        f(h, "rmse_free_run") > 1.2 * f(h, "rmse_shooting"),
+        "the views coincide: {h}"
+    );
+    let a = json(&[
+        "lab",
+        "add",
+        "--model",
+        "model3",
+        "--effects",
+        "thruster-moment-arm",
+        "--data",
+        t,
+        "--validate",
+        v,
+        "--json",
+    ]);
+    check(&a["before"], "add before");
+    check(&a["after"], "add after");
+    for s in a["error_fall"].as_array().unwrap() {
+        assert_eq!(s["rmse"], s["rmse_shooting"], "{s}");
+        assert!(s["rmse_free_run"].is_object(), "{s}");
+    }
+    let d = json(&[
+        "lab",
+        "diagnose",
+        "--model",
+        "model3",
+        "--data",
+        t,
+        "--validate",
+        v,
+        "--json",
+    ]);
+    check(&d["baseline"]["channels"], "diagnose");
+    let dh = &d["baseline"]["channels"]["heading"];
+    assert!(
+        f(dh, "rmse_free_run") > f(dh, "rmse_shooting"),
+        "the views coincide: {dh}"
+    );
+}
