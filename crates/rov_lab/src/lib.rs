@@ -43,4 +43,4 @@ pub use data::Run;
 pub use engine::{ChannelFit, fit_runs, load_model};
 pub use error::LabError;
 pub use model::{BaseKind, LabModel};
-pub use persist::{load_extended_model, load_lab_model, save_extended_model};
+pub use persist::save_extended_model;

@@ -188,18 +188,26 @@ pub struct ListArgs {
 const THREADS: usize = 2;
 
 /// Loads a model argument (`model1`, `model2`, `model3` or `FILE.toml`: a base-model
-/// file, a vehicle definition or a saved extended model): the one loader of `lab`,
-/// `sim run` and `replay --model`, through [`rov_lab::load_model`].
+/// file, a vehicle definition or a saved extended model) for `lab`, `sim run` and
+/// `replay --model`: [`load_model_id`] of the parsed argument.
 pub fn load_model_arg(arg: &str) -> anyhow::Result<LabModel> {
     let id: ModelId = arg.parse().with_context(|| format!("--model {arg}"))?;
-    let text = match &id {
+    load_model_id(&id, "--model")
+}
+
+/// The command line's one model loader: reads a model file (errors say `flag: reading
+/// FILE`) and loads it, or a shipped base, through the lab's one loader
+/// [`rov_lab::load_model`] (its errors name the file, key, value and range). `hold`,
+/// `record`, the station and the lab all load their `--model` and `--vehicle` here.
+pub fn load_model_id(id: &ModelId, flag: &str) -> anyhow::Result<LabModel> {
+    let text = match id {
         ModelId::Base(_) => None,
         ModelId::File(path) => Some(
             fs::read_to_string(path)
-                .with_context(|| format!("--model {arg}: cannot read {}", path.display()))?,
+                .with_context(|| format!("{flag}: reading {}", path.display()))?,
         ),
     };
-    Ok(rov_lab::load_model(&id, text.as_deref())?)
+    Ok(rov_lab::load_model(id, text.as_deref())?)
 }
 
 /// Loads one log as a single continuous run (for commands that need one, such as
