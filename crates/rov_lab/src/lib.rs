@@ -25,6 +25,7 @@ pub mod evaluate;
 pub mod ingest;
 pub mod lab;
 pub mod lm;
+pub mod loader;
 pub mod mapped;
 pub mod metrics;
 pub mod model;

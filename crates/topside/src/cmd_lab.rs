@@ -236,7 +236,9 @@ pub fn load_map(path: Option<&Path>) -> anyhow::Result<Option<rov_logs::LogMap>>
 }
 
 /// Loads one log: measurement CSV, MCAP session, or BlueROV2 tank CSV, as runs (a gap
-/// splits a log into several), with the real-log treatment applied and recorded.
+/// splits a log into several), with the real-log treatment applied and recorded: the
+/// lab's one log loader ([`rov_lab::loader`]), which the GUI's Model lab reads through
+/// too.
 pub fn load_log(path: &Path) -> anyhow::Result<Vec<Run>> {
     load_log_with(path, None)
 }
@@ -266,18 +268,7 @@ pub fn load_log_with(path: &Path, map: Option<&rov_logs::LogMap>) -> anyhow::Res
         return Ok(stream.finish(done.present)?);
     }
     let bytes = fs::read(path).with_context(|| format!("reading {}", path.display()))?;
-    match rov_logs::Format::detect(&bytes) {
-        Some(rov_logs::Format::Csv) | None => {}
-        Some(f) => anyhow::bail!(
-            "{}: a {} log; it needs a log map (--map MAP.toml) that says which fields are \
-             the signals and command channels (see README, \"Logs of other vehicles\")",
-            path.display(),
-            f.name()
-        ),
-    }
-    let text = String::from_utf8(bytes)
-        .map_err(|_| anyhow::anyhow!("{}: not UTF-8 text, and not a session", path.display()))?;
-    Ok(rov_lab::ingest::runs_from_text(&text, &label)?)
+    Ok(rov_lab::loader::read_bytes(&bytes, &label)?.runs()?)
 }
 
 /// Opens a session for the lab: the summary gives its nav message count, and so the

@@ -554,3 +554,34 @@ fn summaries_name_both_error_views() {
         "the views coincide: {dh}"
     );
 }
+
+/// `import` reads a log as the lab does (`rov_lab::loader`): a BlueROV2 tank CSV needs no
+/// `--map` (its shipped map is recognised from the header), and the session holds the rows
+/// the lab reads from the CSV.
+#[test]
+fn import_reads_a_bluerov_csv_as_the_lab_does() {
+    let Some(csv) = bluerov_csv("session_2025_05_27-11_10_52_sync_0_3dof.csv") else {
+        eprintln!("shared/real_data is not present; nothing to check");
+        return;
+    };
+    let out = tmp("bluerov_import.mcap");
+    let o = topside()
+        .arg("import")
+        .arg(&csv)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(err.contains("not Pro 4 thrusters"), "{err}");
+    let bytes = std::fs::read(&csv).unwrap();
+    let lab = rov_lab::loader::read_bytes(&bytes, "bluerov.csv").unwrap();
+    let s = rov_session::open(&out).unwrap();
+    let (series, _, _) = rov_session::measurements(&s).unwrap();
+    assert_eq!(series.rows.len(), lab.len());
+    for (a, b) in series.rows.iter().zip(&lab.series.rows).step_by(97) {
+        assert!((a.time_s - b.time_s).abs() < 1e-6, "{a:?} {b:?}");
+        assert!((a.depth_m - b.depth_m).abs() < 1e-6, "{a:?} {b:?}");
+    }
+}
