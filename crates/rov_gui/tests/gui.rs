@@ -278,16 +278,7 @@ fn lab_tab_runs_a_diagnosis_off_the_gui_thread() {
     let csv = tmp("lab-synthetic.csv");
     synthetic_csv(&csv);
     let mut r = rig("lab.mcap");
-    r.harness.state_mut().set_tab(Tab::Lab);
-    r.run(FRAME_S);
-    let field = data_field(&r).center();
-    r.press(field, true);
-    r.press(field, false);
-    r.run(FRAME_S);
-    r.harness.event(Event::Text(csv.display().to_string()));
-    r.run(FRAME_S);
-    r.click("Load");
-    wait_lab(&mut r, 30.0);
+    load_in_lab(&mut r, &csv);
     assert!(
         r.harness.state().lab().data.is_some(),
         "{:?}",
@@ -390,6 +381,21 @@ fn lab_tab_runs_a_diagnosis_off_the_gui_thread() {
     assert!(lab.fall.last().unwrap().0.starts_with('-'));
 }
 
+/// Opens the lab tab, types `path` into its data field and loads it (waits for the
+/// worker).
+fn load_in_lab(r: &mut Rig, path: &Path) {
+    r.harness.state_mut().set_tab(Tab::Lab);
+    r.run(FRAME_S);
+    let field = data_field(r).center();
+    r.press(field, true);
+    r.press(field, false);
+    r.run(FRAME_S);
+    r.harness.event(Event::Text(path.display().to_string()));
+    r.run(FRAME_S);
+    r.click("Load");
+    wait_lab(r, 60.0);
+}
+
 /// The lab's data path field (masked in snapshots: the path depends on the machine).
 fn data_field(r: &Rig) -> egui::Rect {
     r.harness
@@ -449,16 +455,7 @@ fn lab_tab_splits_a_log_at_a_gap_as_the_cli_does() {
     assert_eq!(cli.len(), 2, "the CLI's reading splits at the gap");
 
     let mut r = rig("lab-gap.mcap");
-    r.harness.state_mut().set_tab(Tab::Lab);
-    r.run(FRAME_S);
-    let field = data_field(&r).center();
-    r.press(field, true);
-    r.press(field, false);
-    r.run(FRAME_S);
-    r.harness.event(Event::Text(csv.display().to_string()));
-    r.run(FRAME_S);
-    r.click("Load");
-    wait_lab(&mut r, 60.0);
+    load_in_lab(&mut r, &csv);
     let lab = r.harness.state().lab();
     let d = lab
         .data

@@ -254,14 +254,7 @@ pub fn read_measurement_csv(text: &str, label: &str) -> Result<LoadedLog, LabErr
     let inputs = if extra.is_empty() || extra_rows.len() != series.rows.len() {
         None
     } else {
-        let mut present = [false; N_COMMANDS];
-        for c in [
-            CommandChannel::PORT,
-            CommandChannel::STARBOARD,
-            CommandChannel::VERTICAL,
-        ] {
-            present[c.index()] = true;
-        }
+        let mut present = crate::data::pro4_present();
         for (_, c) in &extra {
             present[c.index()] = true;
         }

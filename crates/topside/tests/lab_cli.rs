@@ -38,6 +38,21 @@ fn fails_naming(args: &[&str], needle: &str) {
     assert!(err.contains(needle), "{args:?}: {err}");
 }
 
+/// `lab diagnose --model model3 --data TRAIN --validate VAL --json`.
+fn diagnose_args<'a>(train: &'a str, val: &'a str) -> [&'a str; 9] {
+    [
+        "lab",
+        "diagnose",
+        "--model",
+        "model3",
+        "--data",
+        train,
+        "--validate",
+        val,
+        "--json",
+    ]
+}
+
 fn json(args: &[&str]) -> serde_json::Value {
     serde_json::from_str(&run_ok(args)).unwrap()
 }
@@ -137,17 +152,7 @@ fn diagnose_add_save_and_reuse_the_extended_model() {
     let (train_s, val_s) = (train.to_str().unwrap(), val.to_str().unwrap());
 
     // Diagnose: the documented JSON, the hidden effect first and significant.
-    let d = json(&[
-        "lab",
-        "diagnose",
-        "--model",
-        "model3",
-        "--data",
-        train_s,
-        "--validate",
-        val_s,
-        "--json",
-    ]);
+    let d = json(&diagnose_args(train_s, val_s));
     assert_eq!(d["model"], "model3");
     for ch in ["depth", "heading", "pitch", "roll"] {
         let c = &d["baseline"]["channels"][ch];
@@ -517,36 +522,18 @@ fn summaries_name_both_error_views() {
         f(h, "rmse_free_run") > 1.2 * f(h, "rmse_shooting"),
         "the views coincide: {h}"
     );
-    let a = json(&[
-        "lab",
-        "add",
-        "--model",
-        "model3",
-        "--effects",
-        "thruster-moment-arm",
-        "--data",
-        t,
-        "--validate",
-        v,
-        "--json",
-    ]);
+    // The moment arm added (`lab add`, as `diagnose_add_save_and_reuse_the_extended_model`).
+    let mut add = diagnose_args(t, v);
+    add[1] = "add";
+    let add = [&add[..], &["--effects", "thruster-moment-arm"]].concat();
+    let a = json(&add);
     check(&a["before"], "add before");
     check(&a["after"], "add after");
     for s in a["error_fall"].as_array().unwrap() {
         assert_eq!(s["rmse"], s["rmse_shooting"], "{s}");
         assert!(s["rmse_free_run"].is_object(), "{s}");
     }
-    let d = json(&[
-        "lab",
-        "diagnose",
-        "--model",
-        "model3",
-        "--data",
-        t,
-        "--validate",
-        v,
-        "--json",
-    ]);
+    let d = json(&diagnose_args(t, v));
     check(&d["baseline"]["channels"], "diagnose");
     let dh = &d["baseline"]["channels"]["heading"];
     assert!(
