@@ -1,6 +1,8 @@
-//! The Model lab tab (rov_lab): load a session (MCAP) or a measurement CSV, pick a model,
-//! compare it with the measurements (per-channel fit %), run the diagnosis, add a found
-//! effect, and watch the error fall.
+//! The Model lab tab (rov_lab): load a session (MCAP), a measurement CSV or a BlueROV2
+//! tank CSV (read by the lab's one log loader, `rov_lab::loader`, as `topside lab` reads
+//! it: gaps split it into runs, the data notes are the CLI's), pick a model, compare it
+//! with the measurements (per-channel fit %), run the diagnosis, add a found effect, and
+//! watch the error fall.
 //!
 //! Every lab computation (loading, comparison, diagnosis, refits) runs on a worker
 //! thread; the GUI polls for the result and stays responsive.
