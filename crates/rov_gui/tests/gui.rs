@@ -381,51 +381,6 @@ fn lab_tab_runs_a_diagnosis_off_the_gui_thread() {
     assert!(lab.fall.last().unwrap().0.starts_with('-'));
 }
 
-/// Opens the lab tab, types `path` into its data field and loads it (waits for the
-/// worker).
-fn load_in_lab(r: &mut Rig, path: &Path) {
-    r.harness.state_mut().set_tab(Tab::Lab);
-    r.run(FRAME_S);
-    let field = data_field(r).center();
-    r.press(field, true);
-    r.press(field, false);
-    r.run(FRAME_S);
-    r.harness.event(Event::Text(path.display().to_string()));
-    r.run(FRAME_S);
-    r.click("Load");
-    wait_lab(r, 60.0);
-}
-
-/// The lab's data path field (masked in snapshots: the path depends on the machine).
-fn data_field(r: &Rig) -> egui::Rect {
-    r.harness
-        .query_all(
-            egui_kittest::kittest::By::new()
-                .label("Data (CSV or MCAP)")
-                .role(egui::Role::TextInput),
-        )
-        .next()
-        .unwrap()
-        .rect()
-}
-
-/// Steps frames until the lab worker is idle; returns the frames drawn meanwhile.
-fn wait_lab(r: &mut Rig, timeout_s: f64) -> usize {
-    let t0 = Instant::now();
-    let mut frames = 0;
-    while r.harness.state().lab().is_busy() {
-        assert!(
-            t0.elapsed().as_secs_f64() < timeout_s,
-            "lab worker timed out"
-        );
-        std::thread::sleep(Duration::from_millis(20));
-        r.harness.step();
-        frames += 1;
-    }
-    r.run(FRAME_S);
-    frames
-}
-
 /// The GUI's lab reads a log through the lab's one loader, as `topside lab` does: a log
 /// with a 10 s gap in its time stamps is split into the same two runs (same names,
 /// samples and times, the same treatment) as the CLI's reading
@@ -499,4 +454,49 @@ fn lab_tab_splits_a_log_at_a_gap_as_the_cli_does() {
     let (meas, pred) = rov_gui::lab::channel_lines(&c.t, depth, 1);
     assert_eq!((meas.len(), pred.len()), (2, 2), "one line per run");
     r.snapshot_masked("lab_gap_split", data_field(&r));
+}
+
+/// Opens the lab tab, types `path` into its data field and loads it (waits for the
+/// worker).
+fn load_in_lab(r: &mut Rig, path: &Path) {
+    r.harness.state_mut().set_tab(Tab::Lab);
+    r.run(FRAME_S);
+    let field = data_field(r).center();
+    r.press(field, true);
+    r.press(field, false);
+    r.run(FRAME_S);
+    r.harness.event(Event::Text(path.display().to_string()));
+    r.run(FRAME_S);
+    r.click("Load");
+    wait_lab(r, 60.0);
+}
+
+/// The lab's data path field (masked in snapshots: the path depends on the machine).
+fn data_field(r: &Rig) -> egui::Rect {
+    r.harness
+        .query_all(
+            egui_kittest::kittest::By::new()
+                .label("Data (CSV or MCAP)")
+                .role(egui::Role::TextInput),
+        )
+        .next()
+        .unwrap()
+        .rect()
+}
+
+/// Steps frames until the lab worker is idle; returns the frames drawn meanwhile.
+fn wait_lab(r: &mut Rig, timeout_s: f64) -> usize {
+    let t0 = Instant::now();
+    let mut frames = 0;
+    while r.harness.state().lab().is_busy() {
+        assert!(
+            t0.elapsed().as_secs_f64() < timeout_s,
+            "lab worker timed out"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+        r.harness.step();
+        frames += 1;
+    }
+    r.run(FRAME_S);
+    frames
 }
