@@ -63,8 +63,9 @@ impl ModelsFolder {
 pub fn load_file(path: &Path) -> Result<AutopilotModel, String> {
     let label = path.display().to_string();
     let text = std::fs::read_to_string(path).map_err(|e| format!("{label}: {e}"))?;
-    let model = rov_lab::load_extended_model(&text, &label).map_err(|e| e.to_string())?;
-    AutopilotModel::from_vehicle_model(&label, model.as_ref()).map_err(|e| e.to_string())
+    let id = rov_types::ModelId::File(path.to_path_buf());
+    let model = rov_lab::load_model(&id, Some(&text)).map_err(|e| e.to_string())?;
+    AutopilotModel::from_vehicle_model(&label, &model).map_err(|e| e.to_string())
 }
 
 /// The station's answer to the last model change.

@@ -1,6 +1,8 @@
-//! The Model lab tab (rov_lab): load a session (MCAP) or a measurement CSV, pick a model,
-//! compare it with the measurements (per-channel fit %), run the diagnosis, add a found
-//! effect, and watch the error fall.
+//! The Model lab tab (rov_lab): load a session (MCAP), a measurement CSV or a BlueROV2
+//! tank CSV (read by the lab's one log loader, `rov_lab::loader`, as `topside lab` reads
+//! it: gaps split it into runs, the data notes are the CLI's), pick a model, compare it
+//! with the measurements (per-channel fit %), run the diagnosis, add a found effect, and
+//! watch the error fall.
 //!
 //! Every lab computation (loading, comparison, diagnosis, refits) runs on a worker
 //! thread; the GUI polls for the result and stays responsive. While it runs, the tab
@@ -20,7 +22,6 @@ use rov_lab::lab::fit_with_effects;
 use rov_lab::lm::LmOptions;
 use rov_lab::progress::Progress;
 use rov_lab::{BaseKind, EffectId, LabModel, Run};
-use rov_types::measurement::MeasurementSeries;
 
 use crate::app::StationApp;
 use crate::theme;
@@ -53,20 +54,31 @@ pub struct Comparison {
     pub channels: Vec<ComparedChannel>,
 }
 
-/// Loaded data: the full run, and a training / held-out split (first two thirds / last
-/// third) for the diagnosis.
+/// Loaded data, read by the lab's one log loader ([`rov_lab::loader`], as `topside lab`
+/// reads it): the log's runs (gaps split a log into several), and a training / held-out
+/// split (the log's first two thirds of rows / last third, each part read into runs by
+/// the same treatment) for the diagnosis.
 #[derive(Debug, Clone)]
 pub struct LabData {
     /// Label.
     pub name: String,
-    /// Everything.
-    pub full: Arc<Run>,
+    /// Everything: the runs `topside lab` makes of the log.
+    pub full: Arc<Vec<Run>>,
     /// Training part.
-    pub train: Arc<Run>,
+    pub train: Arc<Vec<Run>>,
     /// Held-out part.
-    pub val: Arc<Run>,
-    /// Warnings while loading.
+    pub val: Arc<Vec<Run>>,
+    /// Warnings while loading and what was done to the data, in words (the CLI's data
+    /// notes).
     pub warnings: Vec<String>,
+}
+
+/// Samples and seconds of some runs.
+fn extent(runs: &[Run]) -> (usize, f64) {
+    (
+        runs.iter().map(Run::len).sum(),
+        runs.iter().map(Run::duration_s).sum(),
+    )
 }
 
 /// Results from the worker.
@@ -146,16 +158,6 @@ impl Default for LabState {
     }
 }
 
-fn split_series(s: &MeasurementSeries) -> (MeasurementSeries, MeasurementSeries) {
-    let n = s.rows.len();
-    let cut = n * 2 / 3;
-    let mut a = s.clone();
-    let mut b = s.clone();
-    a.rows.truncate(cut);
-    b.rows.drain(..cut.min(b.rows.len()));
-    (a, b)
-}
-
 /// Loads a CSV or an MCAP session into lab runs.
 ///
 /// # Errors
@@ -180,39 +182,29 @@ pub fn load_window(path: &Path, window: Option<(f64, f64)>) -> Result<LabData, S
     let is_mcap = path
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("mcap"));
-    let (series, raw, warnings) = if is_mcap {
+    let (log, mut warnings) = if is_mcap {
         // Streamed, and decimated when long (rov_lab::stream), as `topside lab` reads it.
         let session = rov_session::open(path).map_err(|e| e.to_string())?;
         let nav = session.count(rov_session::Topic::Nav.name());
         let mut stream = rov_lab::stream::LogStream::new(&name, nav);
         let done = rov_session::measurements_each(&session, &mut |_, row| stream.push(row))
             .map_err(|e| e.to_string())?;
-        let (s, raw) = stream.finish_series(done.present);
-        (s, raw, done.warnings)
+        (stream.finish_log(done.present), done.warnings)
     } else {
-        let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
-        let s = MeasurementSeries::parse_csv(&text, &name).map_err(|e| e.to_string())?;
-        let w = s.warnings.clone();
-        (s, None, w)
+        let bytes = std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))?;
+        let log = rov_lab::loader::read_bytes(&bytes, &name).map_err(|e| e.to_string())?;
+        (log, Vec::new())
     };
-    let mut series = series;
-    if let Some((from_s, to_s)) = window {
-        let t0 = series.rows.first().map_or(0.0, |r| r.time_s);
-        series
-            .rows
-            .retain(|r| r.time_s - t0 >= from_s && r.time_s - t0 <= to_s);
-    }
-    let (a, b) = split_series(&series);
-    let run = |s: &MeasurementSeries, label: &str| -> Result<Run, String> {
-        let mut r = Run::from_series(s, label).map_err(|e| e.to_string())?;
-        if let Some(raw) = &raw {
-            raw.apply(&mut r);
-        }
-        Ok(r)
+    let log = match window {
+        Some((from_s, to_s)) => log.window(from_s, to_s, &name),
+        None => log,
     };
-    let full = run(&series, &name)?;
-    let train = run(&a, &format!("{name} (training)"))?;
-    let val = run(&b, &format!("{name} (held out)"))?;
+    let cut = log.len() * 2 / 3;
+    let runs = |l: &rov_lab::loader::LoadedLog| l.runs().map_err(|e| e.to_string());
+    let full = runs(&log)?;
+    let train = runs(&log.rows(0..cut, &format!("{name} (training)")))?;
+    let val = runs(&log.rows(cut..log.len(), &format!("{name} (held out)")))?;
+    warnings.extend(rov_lab::ingest::treatment_sentences(&full));
     Ok(LabData {
         name,
         full: Arc::new(full),
@@ -222,28 +214,45 @@ pub fn load_window(path: &Path, window: Option<(f64, f64)>) -> Result<LabData, S
     })
 }
 
-/// Compares a model with a run (free run).
+/// Compares a model with runs (free run).
 ///
 /// # Errors
 /// The lab's error text.
-pub fn compare(model: &LabModel, run: &Run) -> Result<Comparison, String> {
-    compare_on(model, run, WHOLE_RUN)
+pub fn compare(model: &LabModel, runs: &[Run]) -> Result<Comparison, String> {
+    compare_on(model, runs, WHOLE_RUN)
 }
 
-/// [`compare`] with a label for the data compared.
+/// [`compare`] with a label for the data compared. The fit and RMSE are pooled over the
+/// runs; the plotted lines follow the runs one after the other, broken between them.
 ///
 /// # Errors
 /// The lab's error text.
-pub fn compare_on(model: &LabModel, run: &Run, scope: &str) -> Result<Comparison, String> {
-    let eval = evaluate(model, std::slice::from_ref(run)).map_err(|e| e.to_string())?;
-    let pred = eval.free_run.first();
+pub fn compare_on(model: &LabModel, runs: &[Run], scope: &str) -> Result<Comparison, String> {
+    let eval = evaluate(model, runs).map_err(|e| e.to_string())?;
+    // The runs' samples one after the other, a missing sample between two runs (the
+    // plotted line breaks there).
+    let joined = |per_run: &dyn Fn(usize, &Run) -> Option<Vec<f64>>| -> Vec<f64> {
+        let mut out = Vec::new();
+        for (i, run) in runs.iter().enumerate() {
+            if i > 0 {
+                out.push(f64::NAN);
+            }
+            match per_run(i, run) {
+                Some(v) if v.len() == run.len() => out.extend(v),
+                _ => out.extend(std::iter::repeat_n(f64::NAN, run.len())),
+            }
+        }
+        out
+    };
     let mut channels = Vec::new();
     for (key, ce) in &eval.channels {
-        let measured = run.y.get(key.0).and_then(Clone::clone).unwrap_or_default();
-        let predicted = pred
-            .and_then(|p| p.y.get(key.0))
-            .and_then(|v| v.as_deref().cloned())
-            .unwrap_or_default();
+        let measured = joined(&|_, run| run.y.get(key.0).and_then(Clone::clone));
+        let predicted = joined(&|i, _| {
+            eval.free_run
+                .get(i)
+                .and_then(|p| p.y.get(key.0))
+                .and_then(|v| v.as_deref().cloned())
+        });
         channels.push(ComparedChannel {
             name: key.name().to_string(),
             measured,
@@ -252,10 +261,17 @@ pub fn compare_on(model: &LabModel, run: &Run, scope: &str) -> Result<Comparison
             rmse: ce.free_run.rmse,
         });
     }
+    let mut t = Vec::new();
+    for (i, run) in runs.iter().enumerate() {
+        if i > 0 {
+            t.push(run.t.first().copied().unwrap_or(f64::NAN));
+        }
+        t.extend_from_slice(&run.t);
+    }
     Ok(Comparison {
         model: model_label(model),
         scope: scope.to_string(),
-        t: run.t.clone(),
+        t,
         channels,
     })
 }
@@ -440,13 +456,7 @@ impl LabState {
                 threads,
                 ..DiagnoseOptions::default()
             };
-            let diag = match diagnose(
-                &base,
-                kind.name(),
-                std::slice::from_ref(&*train),
-                std::slice::from_ref(&*val),
-                &opts,
-            ) {
+            let diag = match diagnose(&base, kind.name(), &train, &val, &opts) {
                 Ok(d) => d,
                 Err(e) => return LabResult::Failed(e.to_string()),
             };
@@ -495,7 +505,7 @@ impl LabState {
             let fitted = if effects.is_empty() {
                 base
             } else {
-                match fit_with_effects(&base, std::slice::from_ref(&*train), &effects, &opts) {
+                match fit_with_effects(&base, &train, &effects, &opts) {
                     Ok((m, _)) => m,
                     Err(err) => return LabResult::Failed(err.to_string()),
                 }
@@ -630,21 +640,23 @@ pub(crate) fn lab_tab(app: &mut StationApp, ui: &mut Ui) {
         );
     }
     if let Some(d) = &lab.data {
+        let ((n, full_s), (_, train_s), (_, val_s)) =
+            (extent(&d.full), extent(&d.train), extent(&d.val));
+        let pieces = match d.full.len() {
+            1 => String::new(),
+            k => format!(" in {k} runs (gaps split the log)"),
+        };
         ui.label(
             RichText::new(format!(
-                "{}: {} samples, {:.1} s (training {:.1} s, held out {:.1} s)",
-                d.name,
-                d.full.len(),
-                d.full.duration_s(),
-                d.train.duration_s(),
-                d.val.duration_s()
+                "{}: {n} samples, {full_s:.1} s{pieces} (training {train_s:.1} s, held out {val_s:.1} s)",
+                d.name
             ))
             .small()
             .color(theme::DIM),
         );
-        for w in d.warnings.iter().take(3) {
+        for w in d.warnings.iter().take(4) {
             ui.label(
-                RichText::new(format!("warning: {w}"))
+                RichText::new(format!("data: {w}"))
                     .small()
                     .color(theme::AMBER),
             );

@@ -278,16 +278,7 @@ fn lab_tab_runs_a_diagnosis_off_the_gui_thread() {
     let csv = tmp("lab-synthetic.csv");
     synthetic_csv(&csv);
     let mut r = rig("lab.mcap");
-    r.harness.state_mut().set_tab(Tab::Lab);
-    r.run(FRAME_S);
-    let field = data_field(&r).center();
-    r.press(field, true);
-    r.press(field, false);
-    r.run(FRAME_S);
-    r.harness.event(Event::Text(csv.display().to_string()));
-    r.run(FRAME_S);
-    r.click("Load");
-    wait_lab(&mut r, 30.0);
+    load_in_lab(&mut r, &csv);
     assert!(
         r.harness.state().lab().data.is_some(),
         "{:?}",
@@ -388,6 +379,96 @@ fn lab_tab_runs_a_diagnosis_off_the_gui_thread() {
         "back to the base's RMSE"
     );
     assert!(lab.fall.last().unwrap().0.starts_with('-'));
+}
+
+/// The GUI's lab reads a log through the lab's one loader, as `topside lab` does: a log
+/// with a 10 s gap in its time stamps is split into the same two runs (same names,
+/// samples and times, the same treatment) as the CLI's reading
+/// (`rov_lab::loader::read_bytes`, what `topside lab`'s `load_log` calls), the page says
+/// so in the CLI's words, and the training and held-out parts are read the same way.
+#[test]
+fn lab_tab_splits_a_log_at_a_gap_as_the_cli_does() {
+    let clean = tmp("lab-gap-clean.csv");
+    synthetic_csv(&clean);
+    let text = std::fs::read_to_string(&clean).unwrap();
+    // Shift every row from 100 s on by 10 s: a gap the lab must not simulate across.
+    let mut lines = text.lines();
+    let mut gapped = format!("{}\n", lines.next().unwrap());
+    for line in lines {
+        let (t, rest) = line.split_once(',').unwrap();
+        let t: f64 = t.parse().unwrap();
+        let t = if t >= 100.0 { t + 10.0 } else { t };
+        gapped.push_str(&format!("{t},{rest}\n"));
+    }
+    let csv = tmp("lab-gap.csv");
+    std::fs::write(&csv, &gapped).unwrap();
+    let label = "lab-gap.csv";
+    let cli = rov_lab::loader::read_bytes(gapped.as_bytes(), label)
+        .unwrap()
+        .runs()
+        .unwrap();
+    assert_eq!(cli.len(), 2, "the CLI's reading splits at the gap");
+
+    let mut r = rig("lab-gap.mcap");
+    load_in_lab(&mut r, &csv);
+    let lab = r.harness.state().lab();
+    let d = lab
+        .data
+        .as_ref()
+        .unwrap_or_else(|| panic!("{:?}", lab.error));
+    assert_eq!(d.full.len(), cli.len());
+    for (g, c) in d.full.iter().zip(&cli) {
+        assert_eq!(g.name, c.name);
+        assert_eq!(g.t, c.t, "{}", g.name);
+        assert_eq!(g.treatment, c.treatment, "{}", g.name);
+    }
+    // The data notes are the CLI's ("data: ..." in `lab diagnose`'s text report).
+    let notes = rov_lab::ingest::treatment_sentences(&cli);
+    assert!(
+        notes
+            .iter()
+            .any(|n| n.contains("split the run into 2 segments")),
+        "{notes:?}"
+    );
+    assert_eq!(d.warnings, notes);
+    // Training: the first two thirds of the rows (the run before the gap and the start
+    // of the one after it); held out: the rest. Each part through the same treatment.
+    let t_cut = d.val.first().unwrap().t[0];
+    assert!(d.train.iter().all(|r| r.t.iter().all(|t| *t < t_cut)));
+    assert!(d.val.iter().all(|r| r.t.iter().all(|t| *t > 110.0)));
+    // The page says it in words, and Compare plots both runs, broken at the gap.
+    let shown = r.labels_containing("gaps split the log");
+    assert!(shown.iter().any(|l| l.contains("in 2 runs")), "{shown:?}");
+    assert!(
+        !r.labels_containing("split the run into 2 segments")
+            .is_empty()
+    );
+    r.click("Compare");
+    wait_lab(&mut r, 60.0);
+    let lab = r.harness.state().lab();
+    let c = lab
+        .comparison
+        .as_ref()
+        .unwrap_or_else(|| panic!("{:?}", lab.error));
+    let depth = c.channels.iter().find(|ch| ch.name == "depth").unwrap();
+    let (meas, pred) = rov_gui::lab::channel_lines(&c.t, depth, 1);
+    assert_eq!((meas.len(), pred.len()), (2, 2), "one line per run");
+    r.snapshot_masked("lab_gap_split", data_field(&r));
+}
+
+/// Opens the lab tab, types `path` into its data field and loads it (waits for the
+/// worker).
+fn load_in_lab(r: &mut Rig, path: &Path) {
+    r.harness.state_mut().set_tab(Tab::Lab);
+    r.run(FRAME_S);
+    let field = data_field(r).center();
+    r.press(field, true);
+    r.press(field, false);
+    r.run(FRAME_S);
+    r.harness.event(Event::Text(path.display().to_string()));
+    r.run(FRAME_S);
+    r.click("Load");
+    wait_lab(r, 60.0);
 }
 
 /// The lab's data path field (masked in snapshots: the path depends on the machine).

@@ -171,6 +171,19 @@ pub struct Segment {
     pub level_pct: f64,
 }
 
+/// The command channels a Pro 4 log holds: port, starboard and vertical.
+pub(crate) fn pro4_present() -> [bool; N_COMMANDS] {
+    let mut p = [false; N_COMMANDS];
+    for c in [
+        CommandChannel::PORT,
+        CommandChannel::STARBOARD,
+        CommandChannel::VERTICAL,
+    ] {
+        p[c.index()] = true;
+    }
+    p
+}
+
 /// A measured run ready for the lab.
 #[derive(Debug, Clone)]
 pub struct Run {
@@ -577,17 +590,7 @@ impl Run {
             .collect();
         let (inputs, input_present) = match extra_inputs {
             Some((i, p)) if i.len() == n => (i, p),
-            _ => {
-                let mut p = [false; N_COMMANDS];
-                for c in [
-                    CommandChannel::PORT,
-                    CommandChannel::STARBOARD,
-                    CommandChannel::VERTICAL,
-                ] {
-                    p[c.index()] = true;
-                }
-                (cmd.iter().map(commands_of_pct).collect(), p)
-            }
+            _ => (cmd.iter().map(commands_of_pct).collect(), pro4_present()),
         };
         let all_segments = segments_of_inputs(&t, &cmd, &inputs, &input_present);
         let mut y: [Option<Vec<f64>>; N_CHANNELS] = Default::default();
@@ -895,15 +898,7 @@ pub fn aligned<'a>(runs: &'a [Run], table: &ChannelTable) -> std::borrow::Cow<'a
 /// 0.5 % starts a new one).
 pub fn segments_of(t: &[f64], cmd: &[ThrustPct]) -> Vec<Segment> {
     let inputs: Vec<Commands> = cmd.iter().map(commands_of_pct).collect();
-    let mut present = [false; N_COMMANDS];
-    for c in [
-        CommandChannel::PORT,
-        CommandChannel::STARBOARD,
-        CommandChannel::VERTICAL,
-    ] {
-        present[c.index()] = true;
-    }
-    segments_of_inputs(t, cmd, &inputs, &present)
+    segments_of_inputs(t, cmd, &inputs, &pro4_present())
 }
 
 /// Constant-command segments over every present command channel (a change of more than

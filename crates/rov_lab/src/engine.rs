@@ -27,7 +27,10 @@ use crate::model::LabModel;
 use crate::sim::{Prediction, simulate_run};
 
 /// Loads a model: a shipped base by name, or a model file's `text` (base-model file,
-/// vehicle definition or saved extended model; named by the id's path in errors).
+/// vehicle definition or saved extended model; named by the id's path in errors). The
+/// lab's one model loader: the CLI, the station, the GUI and the autopilot's model all
+/// load through it (a [`LabModel`] is a [`rov_dynamics::models::VehicleModel`]; box it
+/// where a `Box<dyn VehicleModel>` is needed).
 ///
 /// A file id without its text is refused ([`LabError::SavedModel`]): the caller reads
 /// the file.
@@ -40,7 +43,7 @@ pub fn load_model(id: &ModelId, text: Option<&str>) -> Result<LabModel, LabError
                 file: label.clone(),
                 detail: "the model file's text was not read".into(),
             })?;
-            crate::persist::load_lab_model(text, &label)
+            crate::persist::parse_model_file(text, &label)
         }
     }
 }

@@ -56,6 +56,20 @@ impl ChannelKey {
     }
 }
 
+/// A channel's noise floor pooled over runs (root mean square of the runs' floors,
+/// weighted by their samples; runs that do not measure it left out).
+pub fn pooled_noise(runs: &[Run], ch: Channel) -> f64 {
+    let (mut nsum, mut nn) = (0.0, 0.0);
+    for r in runs {
+        if r.has(ch) {
+            let w = r.len() as f64;
+            nsum += r.noise[ch_index(ch)].powi(2) * w;
+            nn += w;
+        }
+    }
+    (nsum / nn.max(1.0)).sqrt()
+}
+
 /// Evaluates a model on runs in both views.
 pub fn evaluate(model: &LabModel, runs: &[Run]) -> Result<Evaluation, LabError> {
     evaluate_window(model, runs, SHOOTING_WINDOW_S)
@@ -91,20 +105,12 @@ pub fn evaluate_window(
         let (Some(f), Some(s)) = (pooled_metrics(&fi, ch), pooled_metrics(&si, ch)) else {
             continue;
         };
-        let (mut nsum, mut nn) = (0.0, 0.0);
-        for r in runs {
-            if r.has(ch) {
-                let w = r.len() as f64;
-                nsum += r.noise[ch_index(ch)].powi(2) * w;
-                nn += w;
-            }
-        }
         channels.insert(
             ChannelKey::of(ch),
             ChannelEval {
                 free_run: f,
                 shooting: s,
-                noise: (nsum / nn.max(1.0)).sqrt(),
+                noise: pooled_noise(runs, ch),
             },
         );
     }

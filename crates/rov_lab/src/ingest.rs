@@ -34,7 +34,7 @@
 //!   run's drift says nothing about the model.
 
 use rov_dynamics::models::Channel;
-use rov_dynamics::models::vehicle::{CommandChannel, Commands, N_COMMANDS};
+use rov_dynamics::models::vehicle::{Commands, N_COMMANDS};
 use rov_types::measurement::MeasurementSeries;
 
 use crate::LabError;
@@ -297,125 +297,10 @@ pub fn feedback_links(run: &Run) -> Vec<FeedbackLink> {
     out
 }
 
-/// Extra command columns a measurement CSV may carry: `NAME_pct` for every command
-/// channel beyond the Pro 4's three.
-fn extra_command_columns(header: &[&str]) -> Vec<(usize, CommandChannel)> {
-    header
-        .iter()
-        .enumerate()
-        .filter_map(|(i, h)| {
-            let name = h.strip_suffix("_pct")?;
-            let c = CommandChannel::parse_builtin(name)?;
-            (!matches!(
-                c,
-                CommandChannel::PORT | CommandChannel::STARBOARD | CommandChannel::VERTICAL
-            ))
-            .then_some((i, c))
-        })
-        .collect()
-}
-
-/// A measurement CSV as runs: rows with non-increasing time dropped, split at gaps, spikes
-/// excluded; extra `NAME_pct` command columns (a lateral thruster, body-axis demands)
-/// become command channels.
+/// A measurement CSV as runs ([`crate::loader::read_measurement_csv`], then
+/// [`crate::loader::LoadedLog::runs`]).
 pub fn measurement_runs(text: &str, label: &str) -> Result<Vec<Run>, LabError> {
-    let mut lines = text.lines();
-    let Some(header_line) = lines.next() else {
-        return Err(LabError::Data {
-            run: label.into(),
-            detail: "empty file".into(),
-        });
-    };
-    let header: Vec<&str> = header_line.split(',').map(str::trim).collect();
-    let t_col = header.iter().position(|h| *h == "time_s");
-    let extra = extra_command_columns(&header);
-    // Keep line numbers for the parser's messages: dropped rows become comment lines.
-    let mut cleaned = String::with_capacity(text.len());
-    cleaned.push_str(header_line);
-    cleaned.push('\n');
-    let mut last_t = f64::NEG_INFINITY;
-    let mut dropped = 0usize;
-    let mut extra_rows: Vec<Vec<f64>> = Vec::new();
-    for line in lines {
-        let trimmed = line.trim();
-        if trimmed.is_empty() || trimmed.starts_with('#') {
-            cleaned.push_str(line);
-            cleaned.push('\n');
-            continue;
-        }
-        let cells: Vec<&str> = line.split(',').map(str::trim).collect();
-        let t = t_col
-            .and_then(|i| cells.get(i))
-            .and_then(|c| c.parse::<f64>().ok());
-        if let Some(t) = t
-            && t.is_finite()
-        {
-            if t <= last_t {
-                dropped += 1;
-                cleaned.push_str("# dropped: time does not increase\n");
-                continue;
-            }
-            last_t = t;
-        }
-        extra_rows.push(
-            extra
-                .iter()
-                .map(|(i, _)| {
-                    cells
-                        .get(*i)
-                        .and_then(|c| c.parse::<f64>().ok())
-                        .filter(|x| x.is_finite())
-                        .map_or(0.0, |x| x.clamp(-100.0, 100.0))
-                })
-                .collect(),
-        );
-        cleaned.push_str(line);
-        cleaned.push('\n');
-    }
-    let mut series = MeasurementSeries::parse_csv(&cleaned, label)?;
-    series.warnings.retain(|w| {
-        !extra
-            .iter()
-            .any(|(i, _)| header.get(*i).is_some_and(|h| w.contains(h)))
-    });
-    let inputs = if extra.is_empty() || extra_rows.len() != series.rows.len() {
-        None
-    } else {
-        let mut present = [false; N_COMMANDS];
-        for c in [
-            CommandChannel::PORT,
-            CommandChannel::STARBOARD,
-            CommandChannel::VERTICAL,
-        ] {
-            present[c.index()] = true;
-        }
-        for (_, c) in &extra {
-            present[c.index()] = true;
-        }
-        let v: Vec<Commands> = series
-            .rows
-            .iter()
-            .zip(&extra_rows)
-            .map(|(r, e)| {
-                let mut c = crate::data::commands_of_pct(&rov_dynamics::ThrustPct::new(
-                    r.port_pct,
-                    r.starboard_pct,
-                    r.vertical_pct,
-                ));
-                for ((_, ch), x) in extra.iter().zip(e) {
-                    c[ch.index()] = *x;
-                }
-                c
-            })
-            .collect();
-        Some((v, present))
-    };
-    let mut runs = series_runs(&series, label, inputs)?;
-    for r in &mut runs {
-        r.treatment.dropped_time_rows = dropped;
-        r.treatment.notes.extend(series.warnings.iter().cloned());
-    }
-    Ok(runs)
+    crate::loader::read_measurement_csv(text, label)?.runs()
 }
 
 /// A series (with optional full command channels) as runs split at gaps.
@@ -524,10 +409,7 @@ pub fn shipped_map_for(text: &str) -> Option<rov_logs::LogMap> {
 /// Reads a log of any supported text format: a CSV with the columns of a shipped log map
 /// ([`SHIPPED_MAPS`]: the BlueROV2 tank data set) through that map, else a measurement CSV.
 pub fn runs_from_text(text: &str, label: &str) -> Result<Vec<Run>, LabError> {
-    if let Some(map) = shipped_map_for(text) {
-        return crate::mapped::mapped_runs(text.as_bytes(), &map, label);
-    }
-    measurement_runs(text, label)
+    crate::loader::read_text(text, label)?.runs()
 }
 
 /// The treatments of some runs in words, one sentence per source.

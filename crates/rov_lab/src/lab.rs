@@ -76,6 +76,9 @@ pub struct CompareReport {
     pub effects: Vec<String>,
     /// Whether the effects' parameters were fitted on the compared data.
     pub effects_fitted_in_sample: bool,
+    /// Per channel, pooled over runs: the lab's summary with both views
+    /// ([`ChannelSummary`]: `rmse` is multiple shooting, as in `add` and `diagnose`).
+    pub channels: BTreeMap<String, ChannelSummary>,
     /// Pooled over runs, per view.
     pub pooled: BTreeMap<String, ViewMetrics>,
     /// Per run.
@@ -243,9 +246,24 @@ pub fn compare(
                 .collect(),
         }
     };
+    let (pooled_free, pooled_shoot) = (pooled_view(&free), pooled_view(&shoot));
+    let channels = all
+        .iter()
+        .filter_map(|c| {
+            let name = ch_name(*c);
+            let (f, s) = (
+                pooled_free.channels.get(name),
+                pooled_shoot.channels.get(name),
+            );
+            (f.is_some() || s.is_some()).then(|| {
+                let noise = crate::evaluate::pooled_noise(runs, *c);
+                (name.to_string(), ChannelSummary::of_views(f, s, noise))
+            })
+        })
+        .collect();
     let mut pooled = BTreeMap::new();
-    pooled.insert("free_run".to_string(), pooled_view(&free));
-    pooled.insert("shooting".to_string(), pooled_view(&shoot));
+    pooled.insert("free_run".to_string(), pooled_free);
+    pooled.insert("shooting".to_string(), pooled_shoot);
     pooled.insert("k_step".to_string(), pooled_view(&kstep));
     let failures = all
         .iter()
@@ -268,6 +286,7 @@ pub fn compare(
             .map(|e| e.key().to_string())
             .collect(),
         effects_fitted_in_sample: !effects.is_empty(),
+        channels,
         pooled,
         runs: run_reports,
         not_predicted: np,
@@ -279,19 +298,52 @@ pub fn compare(
     })
 }
 
-/// Per-channel numbers of a held-out evaluation (multiple shooting primary, free run too).
+/// The lab's one per-channel summary, in every JSON document of `topside lab` (`compare`'s
+/// `channels`, `add`'s `before`/`after`, `diagnose`'s `baseline.channels`, `cv`'s
+/// `before`/`after`), with both error views under explicit keys:
+///
+/// * `rmse_shooting`: RMSE of the multiple-shooting view (the model re-started from the
+///   measured state every [`SHOOTING_WINDOW_S`]).
+/// * `rmse_free_run`: RMSE of the free run (one simulation from the first sample).
+/// * `rmse`: kept for scripts with the meaning it has always had in these summaries:
+///   the multiple-shooting RMSE (equal to `rmse_shooting`).
+///
+/// Both views come from [`crate::metrics::pooled_metrics`] (the fit metrics of
+/// [`rov_types::fit`]), pooled over the runs. A view that cannot be computed for a
+/// channel (no finite predicted sample, e.g. a free run that diverged) is `null`.
 #[derive(Debug, Clone, Serialize)]
 pub struct ChannelSummary {
     /// Fit % (multiple shooting).
     pub fit_pct: Option<f64>,
-    /// RMSE (multiple shooting).
-    pub rmse: f64,
+    /// RMSE (multiple shooting); the same number as `rmse_shooting`.
+    pub rmse: Option<f64>,
     /// Fit % (free run).
     pub fit_pct_free_run: Option<f64>,
     /// RMSE (free run).
-    pub rmse_free_run: f64,
+    pub rmse_free_run: Option<f64>,
+    /// RMSE (multiple shooting).
+    pub rmse_shooting: Option<f64>,
     /// Noise floor estimated from the data.
     pub noise: f64,
+}
+
+impl ChannelSummary {
+    /// The summary of a channel's pooled metrics in the two views (`None` where a view
+    /// could not be computed).
+    pub fn of_views(
+        free_run: Option<&ChannelMetrics>,
+        shooting: Option<&ChannelMetrics>,
+        noise: f64,
+    ) -> Self {
+        Self {
+            fit_pct: shooting.and_then(|m| m.fit_pct),
+            rmse: shooting.map(|m| m.rmse),
+            fit_pct_free_run: free_run.and_then(|m| m.fit_pct),
+            rmse_free_run: free_run.map(|m| m.rmse),
+            rmse_shooting: shooting.map(|m| m.rmse),
+            noise,
+        }
+    }
 }
 
 /// Channel summaries of an evaluation.
@@ -301,13 +353,7 @@ pub fn summarize(e: &Evaluation) -> BTreeMap<String, ChannelSummary> {
         .map(|(k, c)| {
             (
                 k.name().to_string(),
-                ChannelSummary {
-                    fit_pct: c.shooting.fit_pct,
-                    rmse: c.shooting.rmse,
-                    fit_pct_free_run: c.free_run.fit_pct,
-                    rmse_free_run: c.free_run.rmse,
-                    noise: c.noise,
-                },
+                ChannelSummary::of_views(Some(&c.free_run), Some(&c.shooting), c.noise),
             )
         })
         .collect()
@@ -318,10 +364,12 @@ pub fn summarize(e: &Evaluation) -> BTreeMap<String, ChannelSummary> {
 pub struct ErrorFallStep {
     /// "calibrated base", "+ thruster-lag", …
     pub label: String,
-    /// Held-out RMSE per channel (multiple shooting).
+    /// Held-out RMSE per channel (multiple shooting; the same as `rmse_shooting`).
     pub rmse: BTreeMap<String, f64>,
     /// Held-out RMSE per channel (free run).
     pub rmse_free_run: BTreeMap<String, f64>,
+    /// Held-out RMSE per channel (multiple shooting).
+    pub rmse_shooting: BTreeMap<String, f64>,
 }
 
 /// Result of [`add`].
@@ -364,18 +412,28 @@ pub struct AddReport {
 }
 
 fn fall_step(label: String, e: &Evaluation) -> ErrorFallStep {
-    ErrorFallStep {
-        label,
-        rmse: e
-            .channels
+    let view = |f: fn(&crate::evaluate::ChannelEval) -> f64| -> BTreeMap<String, f64> {
+        e.channels
             .iter()
-            .map(|(k, c)| (k.name().to_string(), c.shooting.rmse))
-            .collect(),
-        rmse_free_run: e
-            .channels
-            .iter()
-            .map(|(k, c)| (k.name().to_string(), c.free_run.rmse))
-            .collect(),
+            .map(|(k, c)| (k.name().to_string(), f(c)))
+            .collect()
+    };
+    ErrorFallStep::new(label, view(|c| c.shooting.rmse), view(|c| c.free_run.rmse))
+}
+
+impl ErrorFallStep {
+    /// A step from its held-out RMSE maps in the two views.
+    pub fn new(
+        label: String,
+        shooting: BTreeMap<String, f64>,
+        free_run: BTreeMap<String, f64>,
+    ) -> Self {
+        Self {
+            label,
+            rmse: shooting.clone(),
+            rmse_free_run: free_run,
+            rmse_shooting: shooting,
+        }
     }
 }
 
@@ -523,6 +581,19 @@ pub struct BaselineJson {
     pub channels: BTreeMap<String, ChannelSummary>,
 }
 
+impl From<&crate::diagnose::BaselineChannel> for ChannelSummary {
+    fn from(b: &crate::diagnose::BaselineChannel) -> Self {
+        Self {
+            fit_pct: b.fit_pct,
+            rmse: Some(b.rmse_shooting),
+            fit_pct_free_run: b.fit_pct_free_run,
+            rmse_free_run: Some(b.rmse),
+            rmse_shooting: Some(b.rmse_shooting),
+            noise: b.noise,
+        }
+    }
+}
+
 /// Builds the diagnose JSON document.
 pub fn diagnose_json(d: &Diagnosis) -> DiagnoseJson {
     let names = d.final_model.command_names();
@@ -541,18 +612,7 @@ pub fn diagnose_json(d: &Diagnosis) -> DiagnoseJson {
             channels: d
                 .baseline
                 .iter()
-                .map(|(k, b)| {
-                    (
-                        k.clone(),
-                        ChannelSummary {
-                            fit_pct: b.fit_pct,
-                            rmse: b.rmse_shooting,
-                            fit_pct_free_run: b.fit_pct_free_run,
-                            rmse_free_run: b.rmse,
-                            noise: b.noise,
-                        },
-                    )
-                })
+                .map(|(k, b)| (k.clone(), ChannelSummary::from(b)))
                 .collect(),
         },
         findings: d.findings.clone(),
@@ -563,10 +623,8 @@ pub fn diagnose_json(d: &Diagnosis) -> DiagnoseJson {
         error_fall: d
             .error_fall
             .iter()
-            .map(|(label, m)| ErrorFallStep {
-                label: label.clone(),
-                rmse: m.shooting.clone(),
-                rmse_free_run: m.free_run.clone(),
+            .map(|(label, m)| {
+                ErrorFallStep::new(label.clone(), m.shooting.clone(), m.free_run.clone())
             })
             .collect(),
     }

@@ -128,17 +128,8 @@ impl MappedSeries {
     }
 }
 
-/// Reads a log (bytes) through a map into lab runs.
+/// Reads a log (bytes) through a map into lab runs ([`crate::loader::read_mapped`], then
+/// [`crate::loader::LoadedLog::runs`]).
 pub fn mapped_runs(bytes: &[u8], map: &LogMap, label: &str) -> Result<Vec<Run>, LabError> {
-    let mapped = map.read_apply(bytes, label)?;
-    let m = mapped_series(&mapped, &map.label)?;
-    let mut runs = Run::runs_from_named_commands(&m.series, label, &m.commands, None)?;
-    for r in &mut runs {
-        r.treatment.dropped_time_rows = m.dropped_rows;
-        r.treatment
-            .notes
-            .push(format!("read through the log map {}", map.label));
-        r.treatment.notes.extend(m.notes.iter().cloned());
-    }
-    Ok(runs)
+    crate::loader::read_mapped(bytes, map, label)?.runs()
 }

@@ -28,10 +28,9 @@
 //! The base is either a Pro 4 model file (key `model`) or a vehicle definition file (key
 //! `vehicle`, see [`rov_dynamics::models::vehicle`]). A file without `[lab]` is a plain
 //! base model. The saved file needs nothing else: no run, no lab state.
-//! [`load_extended_model`] returns it as a [`VehicleModel`] that `sim`, `hold` and the lab
-//! use like any model.
-
-use rov_dynamics::models::VehicleModel;
+//! It is loaded by the lab's one model loader, [`crate::load_model`], as a [`LabModel`]
+//! (a [`rov_dynamics::models::VehicleModel`] that `sim`, `hold` and the autopilot use
+//! like any model).
 
 use crate::LabError;
 use crate::catalog::EffectId;
@@ -121,8 +120,9 @@ fn bad(file: &str, detail: impl Into<String>) -> LabError {
     }
 }
 
-/// Loads a saved extended model (or a plain base-model file) as a lab model.
-pub fn load_lab_model(text: &str, label: &str) -> Result<LabModel, LabError> {
+/// Parses a saved extended model (or a plain base-model or vehicle-definition file) as a
+/// lab model: the file half of [`crate::load_model`], which every caller goes through.
+pub(crate) fn parse_model_file(text: &str, label: &str) -> Result<LabModel, LabError> {
     let mut table: toml::Table = text
         .parse()
         .map_err(|e: toml::de::Error| bad(label, format!("not valid TOML: {e}")))?;
@@ -344,23 +344,4 @@ fn parse_term(v: &toml::Value, i: usize, model: &LabModel, label: &str) -> Resul
         ));
     }
     Ok(term)
-}
-
-/// Loads a saved extended model (or a plain base-model file) as a [`VehicleModel`].
-pub fn load_extended_model(text: &str, label: &str) -> Result<Box<dyn VehicleModel>, LabError> {
-    Ok(Box::new(load_lab_model(text, label)?))
-}
-
-/// A model from a command-line argument: a base name, or the text of a saved file
-/// (`text` is read by the caller when `name_or_path` is not a base name).
-pub fn model_from_arg(name_or_path: &str, text: Option<&str>) -> Result<LabModel, LabError> {
-    if let Some(kind) = BaseKind::parse(name_or_path) {
-        return LabModel::default_base(kind);
-    }
-    match text {
-        Some(t) => load_lab_model(t, name_or_path),
-        None => Err(LabError::UnknownModel {
-            name: name_or_path.into(),
-        }),
-    }
 }

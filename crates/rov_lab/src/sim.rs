@@ -131,35 +131,9 @@ fn reinit(model: &LabModel, run: &Run, k: usize, state: &mut ModelState) {
             .map(|v| v[k])
             .filter(|x| x.is_finite())
     };
-    if let Some(z) = sm(Channel::Depth) {
-        state.eta[2] = z;
-    }
-    if let Some(h) = sm(Channel::Heading) {
-        state.eta[5] = h.to_radians();
-    }
-    if let Some(p) = sm(Channel::Pitch) {
-        state.eta[4] = p.to_radians();
-    }
-    if let Some(r) = sm(Channel::Roll) {
-        state.eta[3] = r.to_radians();
-    }
-    if let Some(x) = sm(Channel::North) {
-        state.eta[0] = x;
-    }
-    if let Some(x) = sm(Channel::East) {
-        state.eta[1] = x;
-    }
-    let rates = [
-        (Channel::Surge, 0, false),
-        (Channel::Sway, 1, false),
-        (Channel::Heave, 2, false),
-        (Channel::RollRate, 3, true),
-        (Channel::PitchRate, 4, true),
-        (Channel::YawRate, 5, true),
-    ];
-    for (ch, i, deg) in rates {
+    for ch in Channel::ALL {
         if let Some(v) = sm(ch) {
-            state.nu[i] = if deg { v.to_radians() } else { v };
+            ch.set_value(state, v);
         }
     }
     *state = model.restrict_state(*state);

@@ -432,9 +432,14 @@ impl LogStream {
     /// The log as runs split at gaps (as [`crate::ingest::series_runs`] does), with the
     /// raw noise floors when decimated.
     pub fn finish(self, present: [bool; 8]) -> Result<Vec<Run>, LabError> {
+        self.finish_log(present).runs()
+    }
+
+    /// The log read ([`crate::loader::LoadedLog`]: its rows before they become runs).
+    pub fn finish_log(self, present: [bool; 8]) -> crate::loader::LoadedLog {
         let label = self.label.clone();
         let (series, raw) = self.finish_series(present);
-        crate::ingest::series_runs_with(&series, &label, None, raw.as_ref())
+        crate::loader::LoadedLog::from_stream(&label, series, raw)
     }
 }
 

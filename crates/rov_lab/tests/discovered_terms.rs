@@ -18,7 +18,8 @@ use rov_dynamics::thrusters::ThrustPct;
 use rov_lab::diagnose::{DiagnoseOptions, Diagnosis, Status, diagnose};
 use rov_lab::lab::diagnose_json;
 use rov_lab::terms::TermKind;
-use rov_lab::{BaseKind, LabModel, Run, load_extended_model, load_lab_model, save_extended_model};
+use rov_lab::{BaseKind, LabModel, Run, load_model, save_extended_model};
+use rov_types::model_id::ModelId;
 
 const TRAIN_S: f64 = 360.0;
 const VAL_S: f64 = 180.0;
@@ -150,9 +151,10 @@ fn check_discovered(seed: u64, hidden: Hidden, dof: u8, kind: TermKind, truth: f
     // Saved with the model; both loaders simulate it like the original.
     let saved = save_extended_model(&d.final_model, "test");
     assert!(saved.contains("[[lab.terms]]"), "{saved}");
-    let lab_loaded = load_lab_model(&saved, "saved.toml").unwrap();
+    let id: ModelId = "saved.toml".parse().unwrap();
+    let lab_loaded = load_model(&id, Some(&saved)).unwrap();
     assert_eq!(lab_loaded.terms().len(), d.final_model.terms().len());
-    let boxed = load_extended_model(&saved, "saved.toml").unwrap();
+    let boxed: Box<dyn rov_dynamics::VehicleModel> = Box::new(lab_loaded.clone());
     let inputs: Vec<(f64, ThrustPct)> = (0..400)
         .map(|k| {
             let s = if k < 200 { 60.0 } else { -60.0 };

@@ -8,7 +8,13 @@ use rov_dynamics::thrusters::ThrustPct;
 use rov_lab::diagnose::{DiagnoseOptions, diagnose};
 use rov_lab::lab::{add, compare, diagnose_json};
 use rov_lab::params::Param;
-use rov_lab::{BaseKind, EffectId, LabModel, Run, load_extended_model, save_extended_model};
+use rov_lab::{BaseKind, EffectId, LabError, LabModel, Run, save_extended_model};
+use rov_types::model_id::ModelId;
+
+/// A model file's text through the lab's one loader, named `file` in errors.
+fn load_file(text: &str, file: &str) -> Result<LabModel, LabError> {
+    rov_lab::load_model(&ModelId::File(file.into()), Some(text))
+}
 
 fn runs(seed: u64, hidden: &[Hidden], tl: f64, vl: f64) -> (Run, Run) {
     let (tr, va) = case_len(seed, hidden, tl, vl);
@@ -40,7 +46,8 @@ fn saved_extended_model_loads_and_simulates_like_the_original() {
     let text = save_extended_model(&m, "test");
     assert!(text.contains("[lab]"));
     assert!(text.contains("lag_time_constant_s = { value = 0.2"));
-    let loaded = load_extended_model(&text, "saved.toml").unwrap();
+    let loaded: Box<dyn rov_dynamics::VehicleModel> =
+        Box::new(load_file(&text, "saved.toml").unwrap());
     assert_eq!(
         loaded.name(),
         "model3+thruster-lag+thruster-moment-arm+thrust-asymmetry"
@@ -65,17 +72,15 @@ fn saved_extended_model_loads_and_simulates_like_the_original() {
     assert!((a[90].pitch_deg.unwrap() - c[90].pitch_deg.unwrap()).abs() > 1.0);
     // A plain base file loads as the base; a bad [lab] is reported with the file name.
     let plain = rov_dynamics::models::default_model_text("model1").unwrap();
-    let l = rov_lab::load_lab_model(plain, "model1.toml").unwrap();
+    let l = load_file(plain, "model1.toml").unwrap();
     assert_eq!(l.kind(), BaseKind::Model1);
     let bad = format!("{text}\n[lab.extra]\nx = 1\n");
-    assert!(load_extended_model(&bad, "bad.toml").is_err());
+    assert!(load_file(&bad, "bad.toml").is_err());
     let bad = text.replace(
         "lag_time_constant_s = { value = 0.2",
         "lag_time_constant_s = { value = 99.0",
     );
-    let e = load_extended_model(&bad, "bad.toml")
-        .unwrap_err()
-        .to_string();
+    let e = load_file(&bad, "bad.toml").unwrap_err().to_string();
     assert!(e.contains("bad.toml") && e.contains("out of range"), "{e}");
 }
 

@@ -272,7 +272,8 @@ fn free_channels_are_read_by_name_and_survive_saving() {
     assert_eq!(ya, yb);
     // Saved and loaded: the same channels, the same prediction.
     let saved = rov_lab::save_extended_model(&m, "test");
-    let back = rov_lab::load_lab_model(&saved, "saved.toml").unwrap();
+    let id: rov_types::model_id::ModelId = "saved.toml".parse().unwrap();
+    let back = rov_lab::load_model(&id, Some(&saved)).unwrap();
     assert_eq!(back.channel_table(), m.channel_table());
     assert_eq!(back.command_names(), m.command_names());
     let c = simulate_run(&back, &reversed, &resets).unwrap();

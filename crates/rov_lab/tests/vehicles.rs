@@ -9,7 +9,7 @@ use rov_lab::ingest::runs_from_text;
 use rov_lab::lm::LmOptions;
 use rov_lab::params::{Param, Thr};
 use rov_lab::sim::simulate_run;
-use rov_lab::{LabModel, Run, load_lab_model};
+use rov_lab::{LabModel, Run, load_model};
 
 fn vehicle_text(file: &str) -> String {
     let p = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -46,7 +46,7 @@ fn shipped_vehicle_files_load_with_their_own_channels() {
         assert!(!text.contains("source = \"\""), "{file}");
         // The lab and the saved-model loader take it as a base.
         LabModel::from_vehicle_text(&text, file).unwrap();
-        load_lab_model(&text, file).unwrap();
+        load_model(&file.parse().unwrap(), Some(&text)).unwrap();
     }
 }
 

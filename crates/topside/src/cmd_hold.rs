@@ -1,7 +1,6 @@
 //! `topside hold`: depth and heading hold closed through the mock link and the simulated
 //! vehicle on virtual time; prints the step-response metrics of the true state.
 
-use anyhow::Context as _;
 use clap::{Args, ValueEnum};
 use rov_control::{ModelChoice, TrackingProfile};
 use rov_station::{AutopilotModel, Disturbance, HoldSpec, VehicleDynamics, run_hold};
@@ -13,16 +12,15 @@ fn parse_model(s: &str) -> Result<ModelId, String> {
     s.parse::<ModelId>().map_err(|e| e.to_string())
 }
 
-/// A model file as a simulation model: the lab's loader reads every file `lab add --save`
-/// writes and the shipped parameter files (errors name the file, key, value and range).
+/// A model file as a simulation model, through the one loader
+/// ([`crate::cmd_lab::load_model_id`]): every file `lab add --save` writes and the shipped
+/// parameter files (errors name `flag`, the file, key, value and range).
 pub fn load_model_file(
     path: &std::path::Path,
+    flag: &str,
 ) -> anyhow::Result<(String, Box<dyn rov_dynamics::VehicleModel>)> {
-    let text =
-        std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
-    let label = path.display().to_string();
-    let model = rov_lab::load_extended_model(&text, &label)?;
-    Ok((label, model))
+    let model = crate::cmd_lab::load_model_id(&ModelId::File(path.to_path_buf()), flag)?;
+    Ok((path.display().to_string(), Box::new(model)))
 }
 
 /// The autopilot's model for `--model`: a shipped base (`None`, selected by name) or a
@@ -31,7 +29,7 @@ pub fn autopilot_model(id: &ModelId) -> anyhow::Result<Option<AutopilotModel>> {
     match id {
         ModelId::Base(_) => Ok(None),
         ModelId::File(path) => {
-            let (label, model) = load_model_file(path)?;
+            let (label, model) = load_model_file(path, "--model")?;
             Ok(Some(AutopilotModel::from_vehicle_model(
                 &label,
                 model.as_ref(),
@@ -177,7 +175,7 @@ pub fn run(args: HoldArgs) -> anyhow::Result<std::process::ExitCode> {
     spec.observer = args.observer == OnOff::On;
     spec.seed = args.seed;
     if let Some(path) = &args.vehicle {
-        let (label, model) = load_model_file(path)?;
+        let (label, model) = load_model_file(path, "--vehicle")?;
         spec.vehicle = Some(VehicleDynamics { label, model });
     }
     let (report, _trace) = run_hold(&spec)?;

@@ -9,7 +9,9 @@
 //! to stderr. A mapped log's command channels that are not the Pro 4's three thrusters
 //! (`port`, `starboard`, `vertical`) have no place in a session's thrust record: the import
 //! says which it left out (the lab reads them from the log itself with `--map`), and the
-//! session's info keeps the map's text as its provenance.
+//! session's info keeps the map's text as its provenance. Logs are read as the lab reads
+//! them ([`rov_lab::loader`]): a CSV with the columns of a shipped map (the BlueROV2 tank
+//! CSVs) is read through that map without `--map`.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -35,20 +37,34 @@ pub struct ImportArgs {
 pub fn run(args: ImportArgs) -> anyhow::Result<ExitCode> {
     let label = args.csv.display().to_string();
     let bytes = std::fs::read(&args.csv).with_context(|| format!("reading {label}"))?;
-    let report = if let Some(map_path) = &args.map {
-        let map_text = std::fs::read_to_string(map_path)
-            .with_context(|| format!("reading the log map {}", map_path.display()))?;
-        let map = rov_logs::LogMap::parse(&map_text, &map_path.display().to_string())?;
-        let mapped = map.read_apply(&bytes, &label)?;
-        let m = rov_lab::mapped::mapped_series(&mapped, &map.label)?;
-        let left_out: Vec<&str> = m
-            .commands
-            .iter()
-            .map(|(n, _)| n.as_str())
+    // The map: the one given, else the shipped map whose columns a CSV has (the BlueROV2
+    // tank CSVs), as the lab reads logs (rov_lab::loader).
+    let map = match &args.map {
+        Some(map_path) => {
+            let map_text = std::fs::read_to_string(map_path)
+                .with_context(|| format!("reading the log map {}", map_path.display()))?;
+            let map = rov_logs::LogMap::parse(&map_text, &map_path.display().to_string())?;
+            Some((map, map_text))
+        }
+        None => std::str::from_utf8(&bytes)
+            .ok()
+            .and_then(rov_lab::ingest::shipped_map_for)
+            .and_then(|map| {
+                let (_, text) = rov_lab::ingest::SHIPPED_MAPS
+                    .iter()
+                    .find(|(name, _)| *name == map.label)?;
+                Some((map, (*text).to_string()))
+            }),
+    };
+    let report = if let Some((map, map_text)) = map {
+        let log = rov_lab::loader::read_mapped(&bytes, &map, &label)?;
+        let left_out: Vec<&str> = log
+            .command_names()
+            .into_iter()
             .filter(|n| !matches!(*n, "port" | "starboard" | "vertical"))
             .collect();
-        let mut series = m.series;
-        series.warnings.extend(m.notes);
+        let mut series = log.series.clone();
+        series.warnings.extend(log.notes().iter().cloned());
         if !left_out.is_empty() {
             series.warnings.push(format!(
                 "command channel(s) {} are not Pro 4 thrusters and are not stored in the \

@@ -192,18 +192,26 @@ pub struct ListArgs {
 }
 
 /// Loads a model argument (`model1`, `model2`, `model3` or `FILE.toml`: a base-model
-/// file, a vehicle definition or a saved extended model): the one loader of `lab`,
-/// `sim run` and `replay --model`, through [`rov_lab::load_model`].
+/// file, a vehicle definition or a saved extended model) for `lab`, `sim run` and
+/// `replay --model`: [`load_model_id`] of the parsed argument.
 pub fn load_model_arg(arg: &str) -> anyhow::Result<LabModel> {
     let id: ModelId = arg.parse().with_context(|| format!("--model {arg}"))?;
-    let text = match &id {
+    load_model_id(&id, "--model")
+}
+
+/// The command line's one model loader: reads a model file (errors say `flag: reading
+/// FILE`) and loads it, or a shipped base, through the lab's one loader
+/// [`rov_lab::load_model`] (its errors name the file, key, value and range). `hold`,
+/// `record`, the station and the lab all load their `--model` and `--vehicle` here.
+pub fn load_model_id(id: &ModelId, flag: &str) -> anyhow::Result<LabModel> {
+    let text = match id {
         ModelId::Base(_) => None,
         ModelId::File(path) => Some(
             fs::read_to_string(path)
-                .with_context(|| format!("--model {arg}: cannot read {}", path.display()))?,
+                .with_context(|| format!("{flag}: reading {}", path.display()))?,
         ),
     };
-    Ok(rov_lab::load_model(&id, text.as_deref())?)
+    Ok(rov_lab::load_model(id, text.as_deref())?)
 }
 
 /// Loads one log as a single continuous run (for commands that need one, such as
@@ -232,7 +240,9 @@ pub fn load_map(path: Option<&Path>) -> anyhow::Result<Option<rov_logs::LogMap>>
 }
 
 /// Loads one log: measurement CSV, MCAP session, or BlueROV2 tank CSV, as runs (a gap
-/// splits a log into several), with the real-log treatment applied and recorded.
+/// splits a log into several), with the real-log treatment applied and recorded: the
+/// lab's one log loader ([`rov_lab::loader`]), which the GUI's Model lab reads through
+/// too.
 pub fn load_log(path: &Path) -> anyhow::Result<Vec<Run>> {
     load_log_with(path, None)
 }
@@ -262,18 +272,7 @@ pub fn load_log_with(path: &Path, map: Option<&rov_logs::LogMap>) -> anyhow::Res
         return Ok(stream.finish(done.present)?);
     }
     let bytes = fs::read(path).with_context(|| format!("reading {}", path.display()))?;
-    match rov_logs::Format::detect(&bytes) {
-        Some(rov_logs::Format::Csv) | None => {}
-        Some(f) => anyhow::bail!(
-            "{}: a {} log; it needs a log map (--map MAP.toml) that says which fields are \
-             the signals and command channels (see README, \"Logs of other vehicles\")",
-            path.display(),
-            f.name()
-        ),
-    }
-    let text = String::from_utf8(bytes)
-        .map_err(|_| anyhow::anyhow!("{}: not UTF-8 text, and not a session", path.display()))?;
-    Ok(rov_lab::ingest::runs_from_text(&text, &label)?)
+    Ok(rov_lab::loader::read_bytes(&bytes, &label)?.runs()?)
 }
 
 /// Opens a session for the lab: the summary gives its nav message count, and so the
@@ -327,14 +326,16 @@ fn print_summary_table(title: &str, m: &std::collections::BTreeMap<String, Chann
         "  {:<10} {:>9} {:>10} {:>9} {:>10} {:>9}",
         "channel", "fit %", "RMSE", "fit % fr", "RMSE fr", "noise"
     );
+    // A view that could not be computed reads "—" (null in the JSON).
+    let rmse = |x: Option<f64>| x.map_or_else(|| "—".into(), |v| format!("{v:.4}"));
     for (k, c) in m {
         println!(
-            "  {:<10} {} {:>10.4} {} {:>10.4} {:>9.4}",
+            "  {:<10} {} {:>10} {} {:>10} {:>9.4}",
             k,
             fmt_opt(c.fit_pct),
-            c.rmse,
+            rmse(c.rmse_shooting),
             fmt_opt(c.fit_pct_free_run),
-            c.rmse_free_run,
+            rmse(c.rmse_free_run),
             c.noise
         );
     }

@@ -92,40 +92,25 @@ pub fn watch_file(
     }
     let label = path.display().to_string();
     let bytes = std::fs::read(path).with_context(|| format!("reading {label}"))?;
-    let series = match map {
-        Some(map) => {
-            let mapped = map
-                .read_apply(&bytes, &label)
-                .with_context(|| format!("reading {label} through the map {}", map.label))?;
-            let m = rov_lab::mapped::mapped_series(&mapped, &map.label)?;
-            let extra: Vec<&str> = m
-                .commands
-                .iter()
-                .map(|(n, _)| n.as_str())
-                .filter(|n| !["port", "starboard", "vertical"].contains(n))
-                .collect();
-            if !extra.is_empty() {
-                anyhow::bail!(
-                    "{label}: the watch flies the Pro 4's port, starboard and vertical command channels; this map also drives {} (a vehicle the watch does not model yet)",
-                    extra.join(", ")
-                );
-            }
-            m.series
-        }
-        None => {
-            if let Some(f) =
-                rov_logs::Format::detect(&bytes).filter(|f| *f != rov_logs::Format::Csv)
-            {
-                anyhow::bail!(
-                    "{label}: a {} log; it needs a log map (--map MAP.toml)",
-                    f.name()
-                );
-            }
-            let text = String::from_utf8(bytes)
-                .map_err(|_| anyhow::anyhow!("{label}: not UTF-8 text, and not a session"))?;
-            rov_types::measurement::MeasurementSeries::parse_csv(&text, &label)?
-        }
+    // Read as the lab reads a log (rov_lab::loader): through the map, or a measurement
+    // CSV / a CSV a shipped map reads.
+    let log = match map {
+        Some(map) => rov_lab::loader::read_mapped(&bytes, map, &label)
+            .with_context(|| format!("reading {label} through the map {}", map.label))?,
+        None => rov_lab::loader::read_bytes(&bytes, &label)?,
     };
+    let extra: Vec<&str> = log
+        .command_names()
+        .into_iter()
+        .filter(|n| !["port", "starboard", "vertical"].contains(n))
+        .collect();
+    if !extra.is_empty() {
+        anyhow::bail!(
+            "{label}: the watch flies the Pro 4's port, starboard and vertical command channels; this log also drives {} (a vehicle the watch does not model yet)",
+            extra.join(", ")
+        );
+    }
+    let series = log.series;
     for w in &series.warnings {
         eprintln!("warning: {w}");
     }

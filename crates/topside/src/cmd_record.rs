@@ -484,13 +484,7 @@ pub fn run(args: RecordArgs, config: Option<&std::path::Path>) -> anyhow::Result
 /// and `null`.
 fn watch_json(out: &std::path::Path, model: &rov_types::ModelId) -> serde_json::Value {
     let run = || -> anyhow::Result<serde_json::Value> {
-        let text = match model {
-            rov_types::ModelId::Base(_) => None,
-            rov_types::ModelId::File(p) => Some(
-                std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?,
-            ),
-        };
-        let lab_model = rov_lab::load_model(model, text.as_deref())?;
+        let lab_model = crate::cmd_lab::load_model_id(model, "--model")?;
         let (alerts, stats) = crate::cmd_lab_watch::watch_file(out, lab_model, None)?;
         let mut j =
             rov_lab::watch::watch_json(&alerts, &stats, &rov_lab::watch::WatchConfig::default());

@@ -140,17 +140,22 @@ pub fn apply_models(
             cfg.autopilot_model = None;
         }
         Some(id @ rov_types::ModelId::File(path)) => {
-            cfg.autopilot_model = crate::cmd_hold::autopilot_model(id).context("--model")?;
-            // The model watch compares the vehicle with the same model, as the lab
-            // reads it (effects and terms included).
-            let text = std::fs::read_to_string(path)
-                .with_context(|| format!("--model: reading {}", path.display()))?;
-            cfg.watch_model = Some(rov_lab::load_model(id, Some(&text)).context("--model")?);
+            // One load: the autopilot's plant and the model watch's model (the lab's
+            // reading, effects and terms included) are the same model.
+            let model = crate::cmd_lab::load_model_id(id, "--model")?;
+            cfg.autopilot_model = Some(
+                rov_station::AutopilotModel::from_vehicle_model(
+                    &path.display().to_string(),
+                    &model,
+                )
+                .context("--model")?,
+            );
+            cfg.watch_model = Some(model);
         }
         None => {}
     }
     if let Some(path) = vehicle {
-        let (label, model) = crate::cmd_hold::load_model_file(path).context("--vehicle")?;
+        let (label, model) = crate::cmd_hold::load_model_file(path, "--vehicle")?;
         cfg.sim_vehicle = Some(rov_station::VehicleDynamics { label, model });
     }
     Ok(())

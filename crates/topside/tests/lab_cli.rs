@@ -38,6 +38,21 @@ fn fails_naming(args: &[&str], needle: &str) {
     assert!(err.contains(needle), "{args:?}: {err}");
 }
 
+/// `lab diagnose --model model3 --data TRAIN --validate VAL --json`.
+fn diagnose_args<'a>(train: &'a str, val: &'a str) -> [&'a str; 9] {
+    [
+        "lab",
+        "diagnose",
+        "--model",
+        "model3",
+        "--data",
+        train,
+        "--validate",
+        val,
+        "--json",
+    ]
+}
+
 fn json(args: &[&str]) -> serde_json::Value {
     serde_json::from_str(&run_ok(args)).unwrap()
 }
@@ -137,17 +152,7 @@ fn diagnose_add_save_and_reuse_the_extended_model() {
     let (train_s, val_s) = (train.to_str().unwrap(), val.to_str().unwrap());
 
     // Diagnose: the documented JSON, the hidden effect first and significant.
-    let d = json(&[
-        "lab",
-        "diagnose",
-        "--model",
-        "model3",
-        "--data",
-        train_s,
-        "--validate",
-        val_s,
-        "--json",
-    ]);
+    let d = json(&diagnose_args(train_s, val_s));
     assert_eq!(d["model"], "model3");
     for ch in ["depth", "heading", "pitch", "roll"] {
         let c = &d["baseline"]["channels"][ch];
@@ -469,4 +474,101 @@ fn add_terms_saves_a_model_that_carries_them() {
         ],
         "term:heave:warp",
     );
+}
+
+/// Every per-channel summary of `lab compare`, `add` and `diagnose` carries both error
+/// views under explicit keys; `rmse` keeps its meaning (multiple shooting in all three:
+/// in `diagnose`'s `baseline` too), and on a model with a missing effect the free run (which integrates the
+/// error) and multiple shooting (re-started from the measurement every window) differ.
+#[test]
+fn summaries_name_both_error_views() {
+    let (train, val) = (tmp("views_train.csv"), tmp("views_val.csv"));
+    hidden_arm_csv(&train, 7, 120.0);
+    hidden_arm_csv(&val, 8, 60.0);
+    let (t, v) = (train.to_str().unwrap(), val.to_str().unwrap());
+    let f = |c: &serde_json::Value, key: &str| -> f64 {
+        c[key]
+            .as_f64()
+            .unwrap_or_else(|| panic!("{key} missing: {c}"))
+    };
+    // The summary's two views are the pooled views' own numbers, and `rmse` is shooting.
+    let check = |summary: &serde_json::Value, what: &str| {
+        let chans = summary.as_object().unwrap();
+        assert!(!chans.is_empty(), "{what}: no channels");
+        for (ch, c) in chans {
+            assert_eq!(f(c, "rmse"), f(c, "rmse_shooting"), "{what} {ch}: {c}");
+            assert!(f(c, "rmse_free_run") > 0.0, "{what} {ch}: {c}");
+        }
+    };
+    let c = json(&["lab", "compare", "--model", "model3", "--data", v, "--json"]);
+    check(&c["channels"], "compare");
+    for ch in ["depth", "heading", "pitch", "roll"] {
+        let s = &c["channels"][ch];
+        assert_eq!(
+            f(s, "rmse_free_run"),
+            f(&c["pooled"]["free_run"]["channels"][ch], "rmse"),
+            "{ch}"
+        );
+        assert_eq!(
+            f(s, "rmse_shooting"),
+            f(&c["pooled"]["shooting"]["channels"][ch], "rmse"),
+            "{ch}"
+        );
+    }
+    // Heading integrates the yaw rate: a model error accumulates over the free run but
+    // only over one window in multiple shooting, so the free run's error is larger.
+    let h = &c["channels"]["heading"];
+    assert!(
+        f(h, "rmse_free_run") > 1.2 * f(h, "rmse_shooting"),
+        "the views coincide: {h}"
+    );
+    // The moment arm added (`lab add`, as `diagnose_add_save_and_reuse_the_extended_model`).
+    let mut add = diagnose_args(t, v);
+    add[1] = "add";
+    let add = [&add[..], &["--effects", "thruster-moment-arm"]].concat();
+    let a = json(&add);
+    check(&a["before"], "add before");
+    check(&a["after"], "add after");
+    for s in a["error_fall"].as_array().unwrap() {
+        assert_eq!(s["rmse"], s["rmse_shooting"], "{s}");
+        assert!(s["rmse_free_run"].is_object(), "{s}");
+    }
+    let d = json(&diagnose_args(t, v));
+    check(&d["baseline"]["channels"], "diagnose");
+    let dh = &d["baseline"]["channels"]["heading"];
+    assert!(
+        f(dh, "rmse_free_run") > f(dh, "rmse_shooting"),
+        "the views coincide: {dh}"
+    );
+}
+
+/// `import` reads a log as the lab does (`rov_lab::loader`): a BlueROV2 tank CSV needs no
+/// `--map` (its shipped map is recognised from the header), and the session holds the rows
+/// the lab reads from the CSV.
+#[test]
+fn import_reads_a_bluerov_csv_as_the_lab_does() {
+    let Some(csv) = bluerov_csv("session_2025_05_27-11_10_52_sync_0_3dof.csv") else {
+        eprintln!("shared/real_data is not present; nothing to check");
+        return;
+    };
+    let out = tmp("bluerov_import.mcap");
+    let o = topside()
+        .arg("import")
+        .arg(&csv)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(err.contains("not Pro 4 thrusters"), "{err}");
+    let bytes = std::fs::read(&csv).unwrap();
+    let lab = rov_lab::loader::read_bytes(&bytes, "bluerov.csv").unwrap();
+    let s = rov_session::open(&out).unwrap();
+    let (series, _, _) = rov_session::measurements(&s).unwrap();
+    assert_eq!(series.rows.len(), lab.len());
+    for (a, b) in series.rows.iter().zip(&lab.series.rows).step_by(97) {
+        assert!((a.time_s - b.time_s).abs() < 1e-6, "{a:?} {b:?}");
+        assert!((a.depth_m - b.depth_m).abs() < 1e-6, "{a:?} {b:?}");
+    }
 }

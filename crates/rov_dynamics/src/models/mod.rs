@@ -191,6 +191,27 @@ impl Channel {
         }
     }
 
+    /// Writes a measured value of this channel (units of [`Channel::value`]: SI, angles and
+    /// angular rates in degrees) into its place in a state: the inverse of
+    /// [`Channel::value`], the one measurement → state table (the lab's re-initialisation
+    /// and its equation error use it).
+    pub fn set_value(self, s: &mut ModelState, v: f64) {
+        match self {
+            Channel::Depth => s.eta[2] = v,
+            Channel::Heading => s.eta[5] = v.to_radians(),
+            Channel::Pitch => s.eta[4] = v.to_radians(),
+            Channel::Roll => s.eta[3] = v.to_radians(),
+            Channel::Surge => s.nu[0] = v,
+            Channel::Sway => s.nu[1] = v,
+            Channel::Heave => s.nu[2] = v,
+            Channel::RollRate => s.nu[3] = v.to_radians(),
+            Channel::PitchRate => s.nu[4] = v.to_radians(),
+            Channel::YawRate => s.nu[5] = v.to_radians(),
+            Channel::North => s.eta[0] = v,
+            Channel::East => s.eta[1] = v,
+        }
+    }
+
     /// The measurement-CSV optional column of this channel, if it is one.
     pub fn optional_column(self) -> Option<OptionalChannel> {
         Some(match self {

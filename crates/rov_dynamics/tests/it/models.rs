@@ -418,3 +418,27 @@ fn each_models_rk4_step_equals_the_four_stage_derivative_step() {
         }
     }
 }
+
+/// `Channel::set_value` is the inverse of `Channel::value`: each channel writes its own
+/// place in the state (no other), in the units `value` reads.
+#[test]
+fn channel_set_value_inverts_value() {
+    use rov_dynamics::models::{Channel, ModelState};
+    let base = ModelState::new(
+        nalgebra::Vector6::new(1.0, 2.0, 3.0, 0.1, 0.2, 0.3),
+        nalgebra::Vector6::new(0.4, 0.5, 0.6, 0.07, 0.08, 0.09),
+    );
+    for ch in Channel::ALL {
+        let mut s = base;
+        let v = ch.value(&base) + 1.5;
+        ch.set_value(&mut s, v);
+        assert!((ch.value(&s) - v).abs() < 1e-12, "{ch:?}");
+        for other in Channel::ALL.iter().filter(|o| **o != ch) {
+            assert_eq!(
+                other.value(&s),
+                other.value(&base),
+                "{ch:?} moved {other:?}"
+            );
+        }
+    }
+}

@@ -25,34 +25,22 @@ pub(super) fn measured_state(
             .map(|(_, b)| b)
             .filter(|x| x.is_finite())
     };
-    if let Some(z) = val(Channel::Depth) {
-        s.eta[2] = z;
-    }
-    if let Some(h) = val(Channel::Heading) {
-        s.eta[5] = h.to_radians();
-    }
-    if active[4]
-        && let Some(p) = val(Channel::Pitch)
-    {
-        s.eta[4] = p.to_radians();
-    }
-    if active[3]
-        && let Some(r) = val(Channel::Roll)
-    {
-        s.eta[3] = r.to_radians();
-    }
-    for (ch, i, deg) in [
-        (Channel::Surge, 0, false),
-        (Channel::Sway, 1, false),
-        (Channel::Heave, 2, false),
-        (Channel::RollRate, 3, true),
-        (Channel::PitchRate, 4, true),
-        (Channel::YawRate, 5, true),
+    // Depth and heading always; the other channels where their DOF is active (the
+    // measurement → state table is `Channel::set_value`; positions are not used).
+    for (ch, on) in [
+        (Channel::Depth, true),
+        (Channel::Heading, true),
+        (Channel::Pitch, active[4]),
+        (Channel::Roll, active[3]),
+        (Channel::Surge, active[0]),
+        (Channel::Sway, active[1]),
+        (Channel::Heave, active[2]),
+        (Channel::RollRate, active[3]),
+        (Channel::PitchRate, active[4]),
+        (Channel::YawRate, active[5]),
     ] {
-        if active[i]
-            && let Some(v) = val(ch)
-        {
-            s.nu[i] = if deg { v.to_radians() } else { v };
+        if on && let Some(v) = val(ch) {
+            ch.set_value(&mut s, v);
         }
     }
     // Rates the sensors do not give: from the slopes through the kinematics, inverted in
