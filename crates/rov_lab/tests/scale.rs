@@ -131,3 +131,63 @@ fn a_diagnosis_reports_its_stages_and_stops_when_cancelled() {
         assert!(seen.iter().any(|s| s == stage), "{stage}: {seen:?}");
     }
 }
+
+/// Resident and peak memory of this process, MB (Linux; `None` elsewhere).
+fn rss_mb() -> Option<(f64, f64)> {
+    let s = std::fs::read_to_string("/proc/self/status").ok()?;
+    let field = |k: &str| -> Option<f64> {
+        let l = s.lines().find(|l| l.starts_with(k))?;
+        let kb: f64 = l.split_whitespace().nth(1)?.parse().ok()?;
+        Some(kb / 1024.0)
+    };
+    Some((field("VmRSS:")?, field("VmHWM:")?))
+}
+
+/// Where a long diagnosis spends its memory and time, by stage: `LAB_TRAIN_MIN` minutes
+/// of training and a third of that held out (default 60), 20 Hz, a hidden lag.
+/// `cargo test -p rov_lab --test scale -- --ignored --nocapture exp_memory_by_stage`
+#[test]
+#[ignore = "experiment: minutes of work and gigabytes"]
+fn exp_memory_by_stage() {
+    let minutes: f64 = std::env::var("LAB_TRAIN_MIN")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(60.0);
+    let (tr, va) = runs(9, &[Hidden::Lag(0.2)], minutes * 60.0, minutes * 20.0);
+    let before = rss_mb().unwrap_or_default();
+    let t0 = Instant::now();
+    let log: Arc<Mutex<Vec<(String, f64, f64)>>> = Arc::default();
+    let l2 = Arc::clone(&log);
+    let progress = Progress::with_sink(move |s| {
+        let mut v = l2.lock().unwrap();
+        let (rss, _) = rss_mb().unwrap_or_default();
+        match v.last_mut() {
+            Some(last) if last.0 == s.name => last.2 = last.2.max(rss),
+            _ => v.push((s.name.clone(), t0.elapsed().as_secs_f64(), rss)),
+        }
+    });
+    let m = LabModel::default_base(BaseKind::Model3).unwrap();
+    let d = progress
+        .run(|| {
+            diagnose(
+                &m,
+                "model3",
+                std::slice::from_ref(&tr),
+                std::slice::from_ref(&va),
+                &DiagnoseOptions::default(),
+            )
+        })
+        .unwrap();
+    let after = rss_mb().unwrap_or_default();
+    eprintln!(
+        "{minutes} min + {:.0} min: {:.1} s wall, RSS before {:.0} MB, peak {:.0} MB; {}",
+        minutes / 3.0,
+        t0.elapsed().as_secs_f64(),
+        before.0,
+        after.1,
+        d.summary
+    );
+    for (name, at, rss) in log.lock().unwrap().iter() {
+        eprintln!("  {at:7.1} s  {rss:6.0} MB  {name}");
+    }
+}
