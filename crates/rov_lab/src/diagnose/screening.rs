@@ -269,8 +269,17 @@ pub(super) fn short_view(runs: &[Run]) -> View {
 /// and effect sensitivities.
 /// Sensitivity columns of the screening objective, kept across greedy rounds (the
 /// linearisation of the calibrated base stays a fair screening approximation after an
-/// effect is added, and it saves most of the cost of later rounds).
-pub(super) type ColumnCache = BTreeMap<Param, Vec<f64>>;
+/// effect is added, and it saves most of the cost of later rounds). Stored in single
+/// precision: a column is a whole dive's rows × channels, two views keep one per
+/// parameter (1.7 GB in f64 on a 1-hour, 50 Hz dive), and a finite-difference
+/// sensitivity has far fewer than seven significant digits; every product is summed in
+/// double precision.
+pub(super) type ColumnCache = BTreeMap<Param, Vec<f32>>;
+
+/// A column into the cache's single precision.
+pub(super) fn to_cache(c: &[f64]) -> Vec<f32> {
+    c.iter().map(|&x| x as f32).collect()
+}
 
 #[allow(clippy::too_many_arguments)]
 pub(super) fn screen(
@@ -329,16 +338,16 @@ pub(super) fn screen(
         if let Some(c) = c
             && c.len() == n
         {
-            cache.insert(*p, c);
+            cache.insert(*p, to_cache(&c));
         }
     }
-    let cols: Vec<Option<&Vec<f64>>> = all.iter().map(|p| cache.get(p)).collect();
+    let cols: Vec<Option<&Vec<f32>>> = all.iter().map(|p| cache.get(p)).collect();
     let to_mat = |idx: &[usize]| -> DMatrix<f64> {
         let mut m = DMatrix::zeros(n, idx.len());
         for (j, &i) in idx.iter().enumerate() {
             if let Some(c) = cols[i] {
                 for (k, v) in c.iter().enumerate() {
-                    m[(k, j)] = *v;
+                    m[(k, j)] = f64::from(*v);
                 }
             }
         }
@@ -505,7 +514,7 @@ pub(super) fn cached_jacobian(
     free: &[Param],
     rows: Option<&[f64]>,
 ) -> Option<DMatrix<f64>> {
-    let cols: Vec<&Vec<f64>> = free.iter().map(|p| cache.get(p)).collect::<Option<_>>()?;
+    let cols: Vec<&Vec<f32>> = free.iter().map(|p| cache.get(p)).collect::<Option<_>>()?;
     let n = cols.first().map_or(0, |c| c.len());
     if cols.iter().any(|c| c.len() != n) || n == 0 {
         return None;
@@ -513,7 +522,7 @@ pub(super) fn cached_jacobian(
     let mut j = DMatrix::zeros(n, free.len());
     for (c, col) in cols.iter().enumerate() {
         for (k, v) in col.iter().enumerate() {
-            j[(k, c)] = *v;
+            j[(k, c)] = f64::from(*v);
         }
     }
     if let Some(f) = rows {
@@ -594,7 +603,9 @@ pub(super) fn rescale_cache(
         return;
     };
     for col in cache.values_mut() {
-        col.iter_mut().zip(&f).for_each(|(x, k)| *x *= k);
+        col.iter_mut()
+            .zip(&f)
+            .for_each(|(x, k)| *x = (f64::from(*x) * k) as f32);
     }
 }
 

@@ -265,10 +265,15 @@ pub(super) fn search(
     let n_rows = Objective::scaled(model, train, view, scales.of(view))
         .residuals(model)?
         .len();
-    let base: Vec<&[f64]> = base_free
+    let fixed_cached: Vec<Vec<f32>> = fixed_cols
+        .iter()
+        .flatten()
+        .map(|c| super::screening::to_cache(c))
+        .collect();
+    let base: Vec<&[f32]> = base_free
         .iter()
         .filter_map(|p| base_cols.get(p))
-        .chain(fixed_cols.iter().flatten())
+        .chain(fixed_cached.iter())
         .filter(|c| c.len() == n_rows)
         .map(Vec::as_slice)
         .collect();
@@ -383,7 +388,7 @@ impl NullFit {
 
     /// The ridge fit on the columns `b` (each n long) with rows weighted by `rows`; the
     /// Gram matrix is summed column pair by column pair (no copy of the columns).
-    fn new(b: &[&[f64]], rows: Option<Vec<f64>>, lambda: &[f64], threads: usize) -> Self {
+    fn new(b: &[&[f32]], rows: Option<Vec<f64>>, lambda: &[f64], threads: usize) -> Self {
         let p = b.len();
         if p == 0 {
             return Self::none();
@@ -400,9 +405,13 @@ impl NullFit {
                             .iter()
                             .zip(b[k].iter())
                             .zip(w)
-                            .map(|((x, y), w)| x * y * w)
+                            .map(|((x, y), w)| f64::from(*x) * f64::from(*y) * w)
                             .sum(),
-                        None => b[j].iter().zip(b[k].iter()).map(|(x, y)| x * y).sum(),
+                        None => b[j]
+                            .iter()
+                            .zip(b[k].iter())
+                            .map(|(x, y)| f64::from(*x) * f64::from(*y))
+                            .sum(),
                     }
                 })
                 .collect()
@@ -420,7 +429,7 @@ impl NullFit {
     }
 
     /// v minus its null fit on the columns `b` (those `new` was given).
-    fn residual(&self, b: &[&[f64]], v: &[f64]) -> Vec<f64> {
+    fn residual(&self, b: &[&[f32]], v: &[f64]) -> Vec<f64> {
         let Some(inv) = &self.inv else {
             return v.to_vec();
         };
@@ -433,13 +442,19 @@ impl NullFit {
         };
         let g = DVector::from_iterator(
             b.len(),
-            b.iter()
-                .map(|c| c.iter().zip(&vw).map(|(x, y)| x * y).sum::<f64>()),
+            b.iter().map(|c| {
+                c.iter()
+                    .zip(&vw)
+                    .map(|(x, y)| f64::from(*x) * y)
+                    .sum::<f64>()
+            }),
         );
         let coef = inv * g;
         let mut fit = vec![0.0; v.len()];
         for (c, k) in b.iter().zip(coef.iter()) {
-            fit.iter_mut().zip(c.iter()).for_each(|(f, x)| *f += k * x);
+            fit.iter_mut()
+                .zip(c.iter())
+                .for_each(|(f, x)| *f += k * f64::from(*x));
         }
         if let Some(f) = &self.rows {
             fit.iter_mut().zip(f).for_each(|(x, k)| *x *= k);
