@@ -83,6 +83,40 @@ pub fn sessions_of(runs: &[Run]) -> Vec<(String, Vec<Run>)> {
     out
 }
 
+/// Session `i` of `groups` held out: the model as given, and calibrated on the others.
+fn session_fit(
+    model: &LabModel,
+    groups: &[(String, Vec<Run>)],
+    i: usize,
+    opts: &LmOptions,
+    window_s: f64,
+) -> Result<SessionFit, LabError> {
+    let Some((name, held)) = groups.get(i) else {
+        return Err(LabError::Data {
+            run: "(sessions)".into(),
+            detail: format!("no session {i}"),
+        });
+    };
+    let train: Vec<Run> = groups
+        .iter()
+        .enumerate()
+        .filter(|(j, _)| *j != i)
+        .flat_map(|(_, (_, r))| r.iter().cloned())
+        .collect();
+    let before = summarize(&crate::evaluate::evaluate_window(model, held, window_s)?);
+    let cal = calibrate(model, &train, opts)?;
+    let after = summarize(&crate::evaluate::evaluate_window(
+        &cal.model, held, window_s,
+    )?);
+    Ok(SessionFit {
+        session: name.clone(),
+        runs: held.len(),
+        before,
+        after,
+        calibration_cost: (cal.cost0, cal.cost),
+    })
+}
+
 /// Leave-one-session-out cross-validation (at least two sessions), multiple shooting in
 /// windows of `window_s` (the lab's own views: [`crate::calibrate::SHOOTING_WINDOW_S`]).
 pub fn leave_one_session_out(
@@ -102,27 +136,17 @@ pub fn leave_one_session_out(
             ),
         });
     }
-    let mut sessions = Vec::with_capacity(groups.len());
-    for (i, (name, held)) in groups.iter().enumerate() {
-        let train: Vec<Run> = groups
-            .iter()
-            .enumerate()
-            .filter(|(j, _)| *j != i)
-            .flat_map(|(_, (_, r))| r.iter().cloned())
-            .collect();
-        let before = summarize(&crate::evaluate::evaluate_window(model, held, window_s)?);
-        let cal = calibrate(model, &train, opts)?;
-        let after = summarize(&crate::evaluate::evaluate_window(
-            &cal.model, held, window_s,
-        )?);
-        sessions.push(SessionFit {
-            session: name.clone(),
-            runs: held.len(),
-            before,
-            after,
-            calibration_cost: (cal.cost0, cal.cost),
-        });
-    }
+    // Each held-out session on its own worker (its calibration's Jacobian nests in the
+    // same pool); the results back in session order.
+    let counter = crate::progress::Counter::start("cross-validating", groups.len(), "sessions");
+    let fits = crate::par::par_map(groups.len(), opts.threads, |i| {
+        let out = session_fit(model, &groups, i, opts, window_s);
+        counter.tick();
+        out
+    });
+    let sessions = fits
+        .into_iter()
+        .collect::<Result<Vec<SessionFit>, LabError>>()?;
     let mut median_map: BTreeMap<String, MedianFit> = BTreeMap::new();
     let channels: Vec<String> = sessions
         .iter()

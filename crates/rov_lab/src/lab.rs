@@ -142,6 +142,68 @@ pub fn fit_with_effects(
     })
 }
 
+/// One run of [`compare`]: its report and its predictions in the three views (free run,
+/// multiple shooting, k-step with `k` steps).
+fn compare_run(
+    m: &LabModel,
+    run: &Run,
+    k: usize,
+) -> Result<(RunReport, Prediction, Prediction, Prediction), LabError> {
+    let chans = compared_channels(m, run);
+    let pf = simulate_run(m, run, &View::FreeRun.resets(run))?;
+    let ps = simulate_run(m, run, &View::Shooting(SHOOTING_WINDOW_S).resets(run))?;
+    let pk = simulate_run(m, run, &View::KStep(k).resets(run))?;
+    let mut views = BTreeMap::new();
+    views.insert("free_run".to_string(), view_metrics(run, &pf, &chans));
+    views.insert("shooting".to_string(), view_metrics(run, &ps, &chans));
+    views.insert("k_step".to_string(), view_metrics(run, &pk, &chans));
+    let mut seg_map: Vec<SegmentReport> = Vec::new();
+    for ch in &chans {
+        for (label, t0, t1, mm) in segment_metrics(run, &ps, *ch) {
+            match seg_map
+                .iter_mut()
+                .find(|s| s.t_start_s == t0 && s.label == label)
+            {
+                Some(s) => {
+                    s.channels.insert(ch_name(*ch).to_string(), mm);
+                }
+                None => seg_map.push(SegmentReport {
+                    label,
+                    t_start_s: t0,
+                    t_end_s: t1,
+                    channels: [(ch_name(*ch).to_string(), mm)].into_iter().collect(),
+                }),
+            }
+        }
+    }
+    let win = windows(run, 10.0)
+        .into_iter()
+        .map(|w| WindowReport {
+            t_start_s: run.t[w.start],
+            t_end_s: run.t[w.end - 1],
+            channels: chans
+                .iter()
+                .filter_map(|c| {
+                    crate::metrics::channel_metrics_range(run, &pf, *c, w.clone())
+                        .map(|mm| (ch_name(*c).to_string(), mm))
+                })
+                .collect(),
+        })
+        .collect();
+    Ok((
+        RunReport {
+            name: run.name.clone(),
+            duration_s: run.duration_s(),
+            views,
+            segments: seg_map,
+            windows: win,
+        },
+        pf,
+        ps,
+        pk,
+    ))
+}
+
 /// Compares a model (with optional effects fitted on the same data) with measured runs in
 /// the three views.
 pub fn compare(
@@ -175,56 +237,16 @@ pub fn compare(
     let k = (K_STEP_S / dt).round().max(1.0) as usize;
     let mut run_reports = Vec::new();
     let (mut free, mut shoot, mut kstep) = (Vec::new(), Vec::new(), Vec::new());
-    for (i, run) in runs.iter().enumerate() {
-        crate::progress::stage("comparing", i + 1, runs.len(), "runs");
-        let chans = compared_channels(&m, run);
-        let pf = simulate_run(&m, run, &View::FreeRun.resets(run))?;
-        let ps = simulate_run(&m, run, &View::Shooting(SHOOTING_WINDOW_S).resets(run))?;
-        let pk = simulate_run(&m, run, &View::KStep(k).resets(run))?;
-        let mut views = BTreeMap::new();
-        views.insert("free_run".to_string(), view_metrics(run, &pf, &chans));
-        views.insert("shooting".to_string(), view_metrics(run, &ps, &chans));
-        views.insert("k_step".to_string(), view_metrics(run, &pk, &chans));
-        let mut seg_map: Vec<SegmentReport> = Vec::new();
-        for ch in &chans {
-            for (label, t0, t1, mm) in segment_metrics(run, &ps, *ch) {
-                match seg_map
-                    .iter_mut()
-                    .find(|s| s.t_start_s == t0 && s.label == label)
-                {
-                    Some(s) => {
-                        s.channels.insert(ch_name(*ch).to_string(), mm);
-                    }
-                    None => seg_map.push(SegmentReport {
-                        label,
-                        t_start_s: t0,
-                        t_end_s: t1,
-                        channels: [(ch_name(*ch).to_string(), mm)].into_iter().collect(),
-                    }),
-                }
-            }
-        }
-        let win = windows(run, 10.0)
-            .into_iter()
-            .map(|w| WindowReport {
-                t_start_s: run.t[w.start],
-                t_end_s: run.t[w.end - 1],
-                channels: chans
-                    .iter()
-                    .filter_map(|c| {
-                        crate::metrics::channel_metrics_range(run, &pf, *c, w.clone())
-                            .map(|mm| (ch_name(*c).to_string(), mm))
-                    })
-                    .collect(),
-            })
-            .collect();
-        run_reports.push(RunReport {
-            name: run.name.clone(),
-            duration_s: run.duration_s(),
-            views,
-            segments: seg_map,
-            windows: win,
-        });
+    // Each run on its own (a worker each; the results back in run order).
+    let counter = crate::progress::Counter::start("comparing", runs.len(), "runs");
+    let per_run = crate::par::par_map_items(runs, threads, |run| {
+        let out = compare_run(&m, run, k);
+        counter.tick();
+        out
+    });
+    for r in per_run {
+        let (report, pf, ps, pk) = r?;
+        run_reports.push(report);
         free.push(pf);
         shoot.push(ps);
         kstep.push(pk);

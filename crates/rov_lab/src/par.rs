@@ -37,6 +37,18 @@ fn pool(threads: usize) -> Option<Arc<rayon::ThreadPool>> {
     Some(p)
 }
 
+/// Runs `work` on the pool of `threads` workers, or right here when already a worker
+/// (nested work shares the pool); `None` when no pool can be built.
+fn in_pool<T: Send>(threads: usize, work: impl FnOnce() -> T + Send) -> Result<T, ()> {
+    if rayon::current_thread_index().is_some() {
+        return Ok(work());
+    }
+    match pool(threads) {
+        Some(p) => Ok(p.install(work)),
+        None => Err(()),
+    }
+}
+
 /// `f(0)…f(n−1)` on up to `threads` workers, in index order.
 pub(crate) fn par_map<T, F>(n: usize, threads: usize, f: F) -> Vec<T>
 where
@@ -56,14 +68,30 @@ where
             })
             .collect()
     };
-    if rayon::current_thread_index().is_some() {
-        // Already a worker: nest in the same pool.
-        return work();
+    in_pool(threads, work).unwrap_or_else(|()| (0..n).map(&f).collect())
+}
+
+/// `f(item)` for every item on up to `threads` workers, in the items' order.
+pub(crate) fn par_map_items<I, T, F>(items: &[I], threads: usize, f: F) -> Vec<T>
+where
+    I: Sync,
+    T: Send,
+    F: Fn(&I) -> T + Sync + Send,
+{
+    if threads <= 1 || items.len() <= 1 {
+        return items.iter().map(f).collect();
     }
-    match pool(threads) {
-        Some(p) => p.install(work),
-        None => (0..n).map(&f).collect(),
-    }
+    let progress = crate::progress::current();
+    let work = || -> Vec<T> {
+        items
+            .par_iter()
+            .map(|item| {
+                let _current = crate::progress::enter(progress.clone());
+                f(item)
+            })
+            .collect()
+    };
+    in_pool(threads, work).unwrap_or_else(|()| items.iter().map(&f).collect())
 }
 
 /// `f(i, chunk_i)` for each `chunk`-long piece of `data` (the last may be shorter), on up
@@ -114,6 +142,17 @@ mod tests {
             for (i, row) in nested.iter().enumerate() {
                 assert_eq!(row, &(0..20).map(|k| i * 100 + k).collect::<Vec<_>>());
             }
+        }
+    }
+
+    #[test]
+    fn items_keep_their_order() {
+        let items: Vec<u32> = (0..50).collect();
+        for threads in [1, 3] {
+            assert_eq!(
+                par_map_items(&items, threads, |x| x * 2),
+                (0..50).map(|x| x * 2).collect::<Vec<u32>>()
+            );
         }
     }
 

@@ -81,6 +81,30 @@ fn the_diagnosis_json_is_the_same_on_one_and_four_threads() {
 }
 
 #[test]
+fn leave_one_session_out_is_the_same_on_one_and_three_threads() {
+    // Three sessions, each held out on its own worker.
+    let sessions: Vec<Run> = (0..3)
+        .map(|i| {
+            let (tr, _) = case_len(30 + i, &[Hidden::Lag(0.2)], 120.0, 30.0);
+            Run::from_series(&tr, &format!("s{i}.csv")).unwrap()
+        })
+        .collect();
+    let m = LabModel::default_base(BaseKind::Model3).unwrap();
+    let cv = |threads: usize| {
+        let opts = rov_lab::lm::LmOptions {
+            threads,
+            max_iter: 4,
+            ..Default::default()
+        };
+        let cv =
+            rov_lab::cross_validate::leave_one_session_out(&m, &sessions, &opts, 20.0).unwrap();
+        assert_eq!(cv.sessions.len(), 3);
+        serde_json::to_string(&cv).unwrap()
+    };
+    assert_eq!(cv(1), cv(3));
+}
+
+#[test]
 fn a_diagnosis_reports_its_stages_and_stops_when_cancelled() {
     let (tr, va) = runs(6, &[Hidden::Lag(0.2)], 240.0, 120.0);
     let seen: Arc<Mutex<Vec<String>>> = Arc::default();

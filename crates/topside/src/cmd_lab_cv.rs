@@ -1,4 +1,4 @@
-//! `topside lab cv --model M --data F [--data G ...] [--json]`: per-session and
+//! `topside lab cv --model M --data F [--data G ...] [--json] [--threads N]`: per-session and
 //! leave-one-session-out held-out fit of a model on its own command channels, free run and
 //! multiple shooting, before and after calibration ([`rov_lab::cross_validate`]).
 
@@ -27,6 +27,8 @@ pub struct CvArgs {
     /// JSON on stdout.
     #[arg(long)]
     json: bool,
+    #[command(flatten)]
+    work: crate::lab_progress::WorkArgs,
 }
 
 fn pct(x: Option<f64>) -> String {
@@ -38,15 +40,13 @@ pub fn run(a: CvArgs) -> anyhow::Result<ExitCode> {
     let model = crate::cmd_lab::load_model_arg(&a.model)?;
     let map = crate::cmd_lab::load_map(a.map.as_deref())?;
     let runs = crate::cmd_lab::load_runs(&a.data, map.as_ref())?;
-    let cv = leave_one_session_out(
-        &model,
-        &runs,
-        &LmOptions {
-            threads: rov_lab::par::default_threads(),
-            ..Default::default()
-        },
-        a.window_s,
-    )?;
+    let opts = LmOptions {
+        threads: a.work.threads(),
+        ..Default::default()
+    };
+    let cv = crate::lab_progress::with_progress(|| {
+        leave_one_session_out(&model, &runs, &opts, a.window_s)
+    })?;
     if a.json {
         println!("{}", serde_json::to_string_pretty(&cv)?);
         return Ok(ExitCode::SUCCESS);
