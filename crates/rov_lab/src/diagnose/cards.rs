@@ -27,12 +27,7 @@ pub(super) fn term_card(
     } else {
         Status::NotSignificant
     };
-    f.channels = j.channels.iter().map(|k| k.name().to_string()).collect();
-    f.view = view_name(j.view).into();
-    f.validation_rmse_reduction_pct = j.primary.clone();
-    f.validation_rmse_reduction_pct_free_run = j.free.clone();
-    f.validation_rmse_reduction_pct_shooting = j.shoot.clone();
-    f.params = param_reports(c);
+    fill_evidence(&mut f, c, j, round);
     let ex = explain(c, j, model);
     let evidence = pick.map_or(String::new(), |p| {
         format!(
@@ -50,10 +45,6 @@ pub(super) fn term_card(
     } else {
         format!("not significant: {} ({ex}{evidence})", j.reason)
     };
-    f.delta_bic = Some(c.dbic);
-    f.score = j.score;
-    f.round = round;
-    f.conflicts = j.conflicts.clone();
     f
 }
 
@@ -81,6 +72,14 @@ pub(super) fn effect_finding(
         c.contained,
     );
     f.significant = j.significant;
+    fill_evidence(&mut f, c, j, round);
+    f
+}
+
+/// Writes a confirmed finding's evidence into its card: the channels it explains, its
+/// view, the held-out RMSE reductions in both views, the fitted parameters, the training
+/// ΔBIC, the held-out score, the round and the channels it makes worse.
+fn fill_evidence(f: &mut Finding, c: &Confirmed, j: &Judgement, round: usize) {
     f.channels = j.channels.iter().map(|k| k.name().to_string()).collect();
     f.view = view_name(j.view).into();
     f.validation_rmse_reduction_pct = j.primary.clone();
@@ -91,7 +90,6 @@ pub(super) fn effect_finding(
     f.score = j.score;
     f.round = round;
     f.conflicts = j.conflicts.clone();
-    f
 }
 
 /// The term search's note for library terms whose residual force follows a catalog

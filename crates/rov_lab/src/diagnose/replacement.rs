@@ -77,6 +77,7 @@ impl Session<'_> {
         if self.opts.max_terms == 0 {
             return Ok(());
         }
+        // Out of `history` while the test changes the session; back in whatever it says.
         let Some(last) = self.history.pop() else {
             return Ok(());
         };
