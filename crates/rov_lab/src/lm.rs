@@ -249,9 +249,11 @@ where
     let sc: Vec<f64> = bounds.iter().map(|b| b.scale).collect();
     let mut refreshes = 0;
     let mut converged = false;
-    // The scaled Jacobian and its Gram matrix, kept while the Jacobian stays the same (a
-    // fresh one is kept over all later iterations; only Broyden updates change it).
-    let mut normal: Option<(DMatrix<f64>, DMatrix<f64>)> = None;
+    // The scaled Gram matrix S JᵀJ S (S = diag(scale)), kept while the Jacobian stays the
+    // same (a fresh one is kept over all later iterations; only Broyden updates change
+    // it). The scaling is applied to the p × p products, not to a copy of the n × p
+    // Jacobian (a whole dive's Jacobian is hundreds of MB).
+    let mut normal: Option<DMatrix<f64>> = None;
     while iterations < opts.max_iter {
         iterations += 1;
         if jac.is_none() {
@@ -263,15 +265,21 @@ where
         }
         let Some(j) = jac.as_mut() else { break };
         // Scaled normal equations: z = x / scale.
-        let (js, a0) = normal.get_or_insert_with(|| {
-            let js = DMatrix::from_fn(n, p, |k, c| j[(k, c)] * sc[c]);
-            // Jᵀ J without forming Jᵀ (a copy of the whole Jacobian).
-            let a0 = js.tr_mul(&js);
-            (js, a0)
+        let a0 = normal.get_or_insert_with(|| {
+            let mut a0 = j.tr_mul(j);
+            for c in 0..p {
+                for k in 0..p {
+                    a0[(k, c)] *= sc[k] * sc[c];
+                }
+            }
+            a0
         });
         let mut a = a0.clone();
         let rv = DVector::from_column_slice(&r);
-        let mut g = js.tr_mul(&rv);
+        let mut g = j.tr_mul(&rv);
+        for (gi, s) in g.iter_mut().zip(&sc) {
+            *gi *= s;
+        }
         for i in 0..p {
             if let Some((v, s)) = bounds[i].prior
                 && s > 0.0

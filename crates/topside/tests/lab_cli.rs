@@ -316,6 +316,35 @@ fn bad_lab_input_is_named() {
         .unwrap();
     assert!(!o.status.success());
     assert!(String::from_utf8_lossy(&o.stderr).contains("warp-drive"));
+    // A worker count outside 1..=1024 is refused, naming the option and the range.
+    fails_naming(
+        &[
+            "lab",
+            "diagnose",
+            "--model",
+            "model3",
+            "--data",
+            "a.csv",
+            "--validate",
+            "b.csv",
+            "--threads",
+            "0",
+        ],
+        "--threads",
+    );
+    fails_naming(
+        &[
+            "lab",
+            "compare",
+            "--model",
+            "model3",
+            "--data",
+            "a.csv",
+            "--threads",
+            "0",
+        ],
+        "1..=1024",
+    );
 }
 
 /// `lab --help` states the verdict's statistical test.

@@ -258,6 +258,20 @@ pub(super) fn search(
     let lambda: Vec<f64> = std::iter::repeat_n(0.0, n_free_cols)
         .chain(fixed_lambda.iter().copied())
         .collect();
+    // The base's sensitivity columns, borrowed from the screening's cache and shared by
+    // every DOF's null fit (each DOF weighs the rows by its own factors, applied on the
+    // fly: a weighted copy per DOF of a whole dive's columns was most of a long
+    // diagnosis's memory).
+    let n_rows = Objective::scaled(model, train, view, scales.of(view))
+        .residuals(model)?
+        .len();
+    let base: Vec<&[f64]> = base_free
+        .iter()
+        .filter_map(|p| base_cols.get(p))
+        .chain(fixed_cols.iter().flatten())
+        .filter(|c| c.len() == n_rows)
+        .map(Vec::as_slice)
+        .collect();
     type Home = (u8, Vec<f64>, Vec<f64>, f64, NullFit);
     let mut homes: Vec<Home> = Vec::new();
     for dof in shortlist.iter().map(|(t, _)| t.dof) {
@@ -266,19 +280,14 @@ pub(super) fn search(
         }
         let cs = candidate_scales(&term_home(dof), scales.of(view));
         let r0 = Objective::scaled(model, train, view, &cs).residuals(model)?;
-        let f = crate::calibrate::row_factors(model, train, view, scales.of(view), &cs);
-        let base: Vec<Vec<f64>> = base_free
-            .iter()
-            .filter_map(|p| base_cols.get(p))
-            .chain(fixed_cols.iter().flatten())
-            .filter(|c| c.len() == r0.len())
-            .map(|c| match &f {
-                Some(f) if f.len() == c.len() => c.iter().zip(f).map(|(a, b)| a * b).collect(),
-                _ => c.clone(),
-            })
-            .collect();
-        let null = NullFit::new(base, &lambda);
-        let r0p = null.residual(&r0);
+        let f = crate::calibrate::row_factors(model, train, view, scales.of(view), &cs)
+            .filter(|f| f.len() == n_rows);
+        let null = if r0.len() == n_rows {
+            NullFit::new(&base, f, &lambda, threads)
+        } else {
+            NullFit::none()
+        };
+        let r0p = null.residual(&base, &r0);
         let n_eff = effective_n(&r0p, r0p.len().max(2));
         homes.push((dof, r0, r0p, n_eff, null));
     }
@@ -308,7 +317,7 @@ pub(super) fn search(
             return None;
         }
         let c: Vec<f64> = r1.iter().zip(raw).map(|(a, b)| (a - b) / step).collect();
-        let c = null.residual(&c);
+        let c = null.residual(&base, &c);
         let cc: f64 = c.iter().map(|x| x * x).sum();
         let cr: f64 = c.iter().zip(r0).map(|(a, b)| a * b).sum();
         let cost0 = rss(r0);
@@ -356,41 +365,85 @@ pub(super) fn search(
 /// with a ridge λ_i on column i (0 for a calibrated parameter, the documented prior's
 /// information 1/σ² for a fixed one).
 struct NullFit {
-    cols: DMatrix<f64>,
-    /// (BᵀB + Λ)⁻¹, `None` when there are no columns or the system is singular.
+    /// The DOF's row factors on the shared base columns B (`None`: rows as they are).
+    rows: Option<Vec<f64>>,
+    /// (BᵀB + Λ)⁻¹ of the row-weighted columns, `None` when there are no columns or the
+    /// system is singular.
     inv: Option<DMatrix<f64>>,
 }
 
 impl NullFit {
-    fn new(cols: Vec<Vec<f64>>, lambda: &[f64]) -> Self {
-        let n = cols.first().map_or(0, |c| c.len());
-        let p = cols.len();
-        let mut b = DMatrix::zeros(n, p);
-        for (j, c) in cols.iter().enumerate() {
-            for (i, v) in c.iter().enumerate() {
-                b[(i, j)] = *v;
-            }
+    /// No null fit (a residual stays as it is).
+    fn none() -> Self {
+        NullFit {
+            rows: None,
+            inv: None,
         }
-        let mut a = b.transpose() * &b;
+    }
+
+    /// The ridge fit on the columns `b` (each n long) with rows weighted by `rows`; the
+    /// Gram matrix is summed column pair by column pair (no copy of the columns).
+    fn new(b: &[&[f64]], rows: Option<Vec<f64>>, lambda: &[f64], threads: usize) -> Self {
+        let p = b.len();
+        if p == 0 {
+            return Self::none();
+        }
+        let w2: Option<Vec<f64>> = rows.as_ref().map(|f| f.iter().map(|k| k * k).collect());
+        let gram_row = |j: usize| -> Vec<f64> {
+            (0..p)
+                .map(|k| {
+                    if k < j {
+                        return 0.0;
+                    }
+                    match &w2 {
+                        Some(w) => b[j]
+                            .iter()
+                            .zip(b[k].iter())
+                            .zip(w)
+                            .map(|((x, y), w)| x * y * w)
+                            .sum(),
+                        None => b[j].iter().zip(b[k].iter()).map(|(x, y)| x * y).sum(),
+                    }
+                })
+                .collect()
+        };
+        let upper = par_map(p, threads, gram_row);
+        let mut a = DMatrix::from_fn(p, p, |j, k| if k >= j { upper[j][k] } else { upper[k][j] });
         let maxd = (0..p).map(|i| a[(i, i)]).fold(0.0f64, f64::max).max(1e-300);
         for i in 0..p {
             a[(i, i)] += 1e-9 * maxd + lambda.get(i).copied().unwrap_or(0.0);
         }
-        let inv = if p == 0 { None } else { a.try_inverse() };
-        NullFit { cols: b, inv }
+        NullFit {
+            rows,
+            inv: a.try_inverse(),
+        }
     }
 
-    /// v minus its null fit.
-    fn residual(&self, v: &[f64]) -> Vec<f64> {
+    /// v minus its null fit on the columns `b` (those `new` was given).
+    fn residual(&self, b: &[&[f64]], v: &[f64]) -> Vec<f64> {
         let Some(inv) = &self.inv else {
             return v.to_vec();
         };
-        if self.cols.nrows() != v.len() {
+        if inv.nrows() != b.len() || b.iter().any(|c| c.len() != v.len()) {
             return v.to_vec();
         }
-        let vv = DVector::from_column_slice(v);
-        let coef = inv * (self.cols.transpose() * &vv);
-        let fit = &self.cols * coef;
-        v.iter().zip(fit.iter()).map(|(a, b)| a - b).collect()
+        let vw: Vec<f64> = match &self.rows {
+            Some(f) => v.iter().zip(f).map(|(a, k)| a * k).collect(),
+            None => v.to_vec(),
+        };
+        let g = DVector::from_iterator(
+            b.len(),
+            b.iter()
+                .map(|c| c.iter().zip(&vw).map(|(x, y)| x * y).sum::<f64>()),
+        );
+        let coef = inv * g;
+        let mut fit = vec![0.0; v.len()];
+        for (c, k) in b.iter().zip(coef.iter()) {
+            fit.iter_mut().zip(c.iter()).for_each(|(f, x)| *f += k * x);
+        }
+        if let Some(f) = &self.rows {
+            fit.iter_mut().zip(f).for_each(|(x, k)| *x *= k);
+        }
+        v.iter().zip(&fit).map(|(a, b)| a - b).collect()
     }
 }
