@@ -29,7 +29,7 @@
 //! 5. **Greedy**: accept the best, reweight the channels, screen again on top of it,
 //!    until nothing passes. The confirmation of the accepted effect is done again with
 //!    every fit continued to convergence when one of them ran out of the short LM
-//!    budget that ranks the candidates ([`Greedy::polish`]): its parameters are reported.
+//!    budget that ranks the candidates ([`greedy::Greedy::polish`]): its parameters are reported.
 //! 6. **Replacement**: when the last accepted effect leaves one of its home channels
 //!    inconsistent, its DOF's library terms are confirmed on the model without it; a term
 //!    that scores higher on the held-out runs and brings those channels within the
@@ -119,7 +119,7 @@ fn home_channels(e: EffectId) -> Vec<Channel> {
 }
 
 /// Diagnoses a base model on training runs, judging on held-out runs: the steps of the
-/// module documentation, in order, on one [`session::Session`].
+/// module documentation, in order, on one `session::Session`.
 pub fn diagnose(
     base: &LabModel,
     model_label: &str,

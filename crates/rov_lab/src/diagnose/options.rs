@@ -11,13 +11,13 @@ pub const WORSE_FRACTION_OF_GAIN: f64 = 0.2;
 /// Largest tolerated worsening of another channel (fraction).
 pub const MAX_WORSE: f64 = 0.05;
 /// A worsened channel whose held-out prediction moved by less than this fraction of its
-/// noise floor (RMS) is within noise (see [`judge`]).
+/// noise floor (RMS) is within noise (see [`super::judge`]).
 pub const WORSE_NOISE_FRACTION: f64 = 0.5;
 /// Largest tolerated worsening of a channel the effect does not claim and the base
-/// already misses structurally (fraction, see [`judge`]).
+/// already misses structurally (fraction, see [`super::judge`]).
 pub const MAX_WORSE_UNEXPLAINED: f64 = 0.25;
 /// An effect parameter within this fraction of its range from a plausibility bound is
-/// pinned there (see [`judge`]).
+/// pinned there (see [`super::judge`]).
 pub const BOUND_MARGIN: f64 = 0.03;
 /// Training ΔBIC needed (effective sample size).
 pub const MIN_DBIC: f64 = 10.0;
@@ -41,7 +41,7 @@ pub const INADEQUATE_SHARE: f64 = 0.25;
 /// Cosine similarity of prediction changes above which two findings are ambiguous.
 pub const AMBIGUITY_COSINE: f64 = 0.9;
 
-/// Options of [`diagnose`].
+/// Options of [`super::diagnose`].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct DiagnoseOptions {
     /// Worker threads (1 = serial; default: every core). The result is the same for
