@@ -609,7 +609,7 @@ impl From<&crate::diagnose::BaselineChannel> for ChannelSummary {
             fit_pct: b.fit_pct,
             rmse: Some(b.rmse_shooting),
             fit_pct_free_run: b.fit_pct_free_run,
-            rmse_free_run: Some(b.rmse),
+            rmse_free_run: Some(b.rmse_free_run),
             rmse_shooting: Some(b.rmse_shooting),
             noise: b.noise,
         }

@@ -61,7 +61,10 @@ fn bluerov_runs_through_compare_and_diagnose() {
     )
     .unwrap();
     for (ch, b) in &d.baseline {
-        assert!(b.rmse.is_finite() && b.rmse_shooting.is_finite(), "{ch}");
+        assert!(
+            b.rmse_free_run.is_finite() && b.rmse_shooting.is_finite(),
+            "{ch}"
+        );
     }
     eprintln!("BlueROV2 (model3): {}", d.summary);
     // A BlueROV2 squeezed onto the Pro 4's three thrusters is not a Pro 4: the lab must
@@ -82,7 +85,7 @@ fn bluerov_runs_through_compare_and_diagnose() {
             b.fit_pct.map(|x| x.round()),
             b.rmse_shooting,
             b.fit_pct_free_run.map(|x| x.round()),
-            b.rmse,
+            b.rmse_free_run,
             b.noise
         );
     }

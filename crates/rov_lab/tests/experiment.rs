@@ -149,7 +149,7 @@ fn run_case(tag: &str, kind: BaseKind, hidden: &[Hidden], seed: u64) {
     for (k, b) in &d.baseline {
         println!(
             "   base {k}: rmse {:.4} shoot {:.4} noise {:.4}",
-            b.rmse, b.rmse_shooting, b.noise
+            b.rmse_free_run, b.rmse_shooting, b.noise
         );
     }
     for f in d.findings.iter().take(7) {

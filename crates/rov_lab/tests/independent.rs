@@ -304,7 +304,7 @@ fn diagnosed(seed: u64, h: Hidden, four_channels: bool) -> Diagnosis {
     for (ch, b) in &d.baseline {
         eprintln!(
             "  baseline {ch}: RMSE {:.4} (free run {:.4}), noise {:.4}",
-            b.rmse_shooting, b.rmse, b.noise
+            b.rmse_shooting, b.rmse_free_run, b.noise
         );
     }
     for f in d.findings.iter().take(4) {

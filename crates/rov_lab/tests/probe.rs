@@ -445,7 +445,7 @@ fn detail(d: &Diagnosis, expect: &[&str]) -> String {
     for (ch, b) in &d.baseline {
         s += &format!(
             "    base {ch}: rmse shooting {:.4} free run {:.4} noise {:.4}\n",
-            b.rmse_shooting, b.rmse, b.noise
+            b.rmse_shooting, b.rmse_free_run, b.noise
         );
     }
     for (name, m) in &d.error_fall {

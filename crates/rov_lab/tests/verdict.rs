@@ -185,7 +185,7 @@ fn a_finding_that_worsens_another_channel_is_reported_as_a_conflict() {
             (
                 "free run",
                 &f.validation_rmse_reduction_pct_free_run,
-                b.rmse,
+                b.rmse_free_run,
             ),
         ] {
             let Some(r) = red.get(ch) else { continue };

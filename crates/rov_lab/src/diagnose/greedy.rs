@@ -31,12 +31,6 @@ pub(super) struct Greedy<'a> {
 }
 
 impl<'a> Greedy<'a> {
-    /// The base parameters' sensitivity columns of the multiple-shooting screening
-    /// objective (weights `scales.shoot`, linearised at the calibrated base).
-    pub(super) fn shooting_columns(&self) -> &ColumnCache {
-        &self.cache_shoot
-    }
-
     /// Starts from a calibration.
     pub(super) fn new(
         cal: &Calibration,
@@ -281,6 +275,48 @@ impl<'a> Greedy<'a> {
         )
         .ok()?;
         (j.significant && c.fit.cost <= accepted.fit.cost).then_some((c, j))
+    }
+
+    /// Confirms a discovered term on the current model (from `start` when given: the
+    /// replacement test's short-horizon start), as the term rounds, the replacement test
+    /// and `lab add --terms` do ([`discovery::confirm_term`]).
+    pub(super) fn confirm_term(
+        &self,
+        pick: &discovery::TermPick,
+        start: Option<&LabModel>,
+        iterations: usize,
+    ) -> Result<(Confirmed, Judgement), LabError> {
+        discovery::confirm_term(
+            start.unwrap_or(&self.current),
+            &self.current_eval,
+            self.train,
+            self.val,
+            &self.current_free,
+            pick,
+            iterations,
+            &self.scales,
+            self.closed_loop,
+        )
+    }
+
+    /// The library's term picks on the current model's training residual
+    /// ([`discovery::search`]): candidates of the DOFs `dofs` (all when `None`), with a
+    /// catalog-signature filter over `catalog`.
+    pub(super) fn search_terms(
+        &self,
+        catalog: &[(crate::catalog::EffectId, Vec<Param>)],
+        dofs: Option<&[usize]>,
+    ) -> Result<(Vec<discovery::TermPick>, discovery::SearchNotes), LabError> {
+        discovery::search(
+            &self.current,
+            self.train,
+            &self.current_free,
+            catalog,
+            &self.scales,
+            &self.cache_shoot,
+            self.threads,
+            dofs,
+        )
     }
 
     /// Whether the current model is structurally inadequate for the data

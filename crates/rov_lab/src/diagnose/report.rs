@@ -114,7 +114,7 @@ pub struct BaselineChannel {
     /// Fit % (free run).
     pub fit_pct_free_run: Option<f64>,
     /// RMSE (free run).
-    pub rmse: f64,
+    pub rmse_free_run: f64,
     /// Noise floor estimated from the data.
     pub noise: f64,
 }
