@@ -32,11 +32,11 @@ pub fn with_progress<T>(work: impl FnOnce() -> Result<T, LabError>) -> Result<T,
         return Progress::new().run(work);
     }
     let bar = ProgressBar::with_draw_target(None, ProgressDrawTarget::stderr());
-    let counted = ProgressStyle::with_template(
-        "{spinner} {elapsed:>4} {msg:32} [{bar:30}] {pos}/{len} {prefix}",
-    )
-    .unwrap_or_else(|_| ProgressStyle::default_bar())
-    .progress_chars("=> ");
+    // The stage's words and count in the message, so that no redraw shows the count of one
+    // stage with the words of another; the bar's length and position change together.
+    let counted = ProgressStyle::with_template("{spinner} {elapsed:>4} [{bar:30}] {msg}")
+        .unwrap_or_else(|_| ProgressStyle::default_bar())
+        .progress_chars("=> ");
     let open = ProgressStyle::with_template("{spinner} {elapsed:>4} {msg}")
         .unwrap_or_else(|_| ProgressStyle::default_spinner());
     bar.set_style(open.clone());
@@ -45,14 +45,14 @@ pub fn with_progress<T>(work: impl FnOnce() -> Result<T, LabError>) -> Result<T,
     let progress = Progress::with_sink(move |s: &Stage| {
         if s.total == 0 {
             b.set_style(open.clone());
-            b.set_message(s.name.clone());
         } else {
             b.set_style(counted.clone());
-            b.set_message(s.name.clone());
-            b.set_length(s.total as u64);
-            b.set_position(s.done as u64);
-            b.set_prefix(s.unit);
+            b.update(|state| {
+                state.set_len(s.total as u64);
+                state.set_pos(s.done as u64);
+            });
         }
+        b.set_message(s.to_string());
     });
     let out = progress.run(work);
     bar.finish_and_clear();
