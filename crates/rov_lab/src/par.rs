@@ -116,15 +116,10 @@ where
             f(i, c)
         })
     };
-    if rayon::current_thread_index().is_some() {
-        return work(data);
-    }
-    match pool(threads) {
-        Some(p) => p.install(|| work(data)),
-        None => data
-            .chunks_mut(chunk)
+    if in_pool(threads, || work(&mut *data)).is_err() {
+        data.chunks_mut(chunk)
             .enumerate()
-            .for_each(|(i, c)| f(i, c)),
+            .for_each(|(i, c)| f(i, c));
     }
 }
 
