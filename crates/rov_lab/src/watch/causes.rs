@@ -20,7 +20,9 @@
 //! (a jump) or a reading that stops following the motion (stuck) from a time scanned
 //! around the onset. The score is the share of the normalised residual energy the
 //! fitted cause explains, 1 − RSS(θ̂)/RSS(0), in [0, 1], halved when the fitted size
-//! ends at its search bound (not a plausible size, so not a finding). A reading that repeats one
+//! ends at its search bound (not a plausible size, so not a finding); a compass cause's
+//! score is scaled by the share of its fitted size that the gyro confirms (the compass
+//! moving unlike the integrated gyro, [`super::steps::compass_minus_gyro_deg`]). A reading that repeats one
 //! value exactly where it was noisy before (the detector's freeze test) is a sensor
 //! fault: its sensor cause gets score 1.
 
@@ -587,6 +589,17 @@ pub(crate) fn rank(input: &FitInput<'_>) -> Vec<CauseScore> {
         };
         if at_bound {
             score *= BOUND_PENALTY;
+        }
+        // A compass fault is a compass that disagrees with the gyro: a fitted compass
+        // error the gyro does not show (the compass moved as the gyro says, so the
+        // vehicle really turned, or really did not) is another cause's residual. The
+        // score keeps only the share of the fitted size the gyro confirms.
+        if cause == Cause::Compass
+            && let Some(size) = theta.first().copied().filter(|s| s.abs() > 1e-9)
+            && let Some(d) =
+                super::steps::compass_minus_gyro_deg(input.rows, from_s.unwrap_or(input.onset_s))
+        {
+            score *= (d / size).clamp(0.0, 1.0);
         }
         let frozen_here = match cause {
             Cause::DepthSensor => input.frozen == Some(0),

@@ -162,6 +162,27 @@ impl Steps {
 }
 
 /// The heading rate the gyro gives, deg/s: (q sin φ + r cos φ)/cos θ.
+/// How far the compass moved beyond what the gyro says, degrees, from `from_s` to the
+/// last row: the compass's change (unwrapped row to row) minus the integral of the
+/// gyro's heading rate (trapezoids). About zero whatever the vehicle does when both
+/// sensors are right; the size of a compass fault (a jump, or the motion a stuck compass
+/// missed) when the compass is wrong. `None` without a gyro or with fewer than two rows.
+pub(crate) fn compass_minus_gyro_deg(rows: &[MeasurementRow], from_s: f64) -> Option<f64> {
+    let mut d = 0.0;
+    let mut n = 0usize;
+    let after = rows.iter().filter(|r| r.time_s >= from_s);
+    for (a, b) in after.clone().zip(after.skip(1)) {
+        let gyro = 0.5 * (psi_dot_dps(a) + psi_dot_dps(b)) * (b.time_s - a.time_s);
+        let compass = wrap180(b.heading_deg - a.heading_deg);
+        if !(gyro.is_finite() && compass.is_finite()) {
+            return None;
+        }
+        d += compass - gyro;
+        n += 1;
+    }
+    (n > 0).then_some(d)
+}
+
 fn psi_dot_dps(r: &MeasurementRow) -> f64 {
     let (Some(Some(yaw)), Some(Some(pitch_rate))) = (r.optional.first(), r.optional.get(1)) else {
         return f64::NAN;
@@ -230,5 +251,46 @@ mod tests {
             t += 0.1;
         }
         assert_eq!(got.map(|g| g.channel), Some(0));
+    }
+
+    #[test]
+    fn the_compass_against_the_gyro_is_zero_for_a_real_turn_and_the_fault_for_a_bad_compass() {
+        // A turn through north at 30 deg/s for 10 s, seen by both: ~0.
+        let turn: Vec<MeasurementRow> = (0..=100)
+            .map(|k| {
+                let t = 0.1 * k as f64;
+                row(t, (350.0 + 30.0 * t).rem_euclid(360.0), 30.0, 3.0)
+            })
+            .collect();
+        let d = compass_minus_gyro_deg(&turn, 0.0).unwrap();
+        assert!(d.abs() < 1e-6, "{d}");
+        // The same turn with the compass stuck from 4 s: it missed the 180° turned since.
+        let stuck: Vec<MeasurementRow> = turn
+            .iter()
+            .map(|r| {
+                let mut r = *r;
+                if r.time_s > 4.0 {
+                    r.heading_deg = (350.0 + 30.0 * 4.0f64).rem_euclid(360.0);
+                }
+                r
+            })
+            .collect();
+        let d = compass_minus_gyro_deg(&stuck, 4.0).unwrap();
+        assert!((d + 180.0).abs() < 1.0, "{d}");
+        // A held heading with a 25° jump of the compass at 5 s.
+        let jump: Vec<MeasurementRow> = (0..=100)
+            .map(|k| {
+                let t = 0.1 * k as f64;
+                row(t, if t > 5.0 { 125.0 } else { 100.0 }, 0.0, 3.0)
+            })
+            .collect();
+        let d = compass_minus_gyro_deg(&jump, 3.0).unwrap();
+        assert!((d - 25.0).abs() < 1e-9, "{d}");
+        // No gyro: no answer.
+        let mut blind = jump.clone();
+        for r in &mut blind {
+            r.optional[0] = None;
+        }
+        assert_eq!(compass_minus_gyro_deg(&blind, 3.0), None);
     }
 }
