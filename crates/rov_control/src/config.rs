@@ -94,9 +94,9 @@ impl AxisConfig {
             // kp 60 N/m and kd 25 N s/m on ~11 kg (mass + heave added mass): ζ ≈ 0.48 at
             // ωn ≈ 2.3 rad/s before the hydrodynamic damping. The former 130 / 20 gave
             // ζ ≈ 0.26 at 3.4 rad/s, a resonance that depth noise kept ringing at a steady
-            // hold (tests/depth_hold_chatter.rs). Steps and profiles are carried by the
+            // hold (tests/it/depth_hold_chatter.rs). Steps and profiles are carried by the
             // reference model and the feedforward, so their settling, overshoot and
-            // tracking did not move (tests/hold_acceptance.rs); feedback alone (no
+            // tracking did not move (tests/it/hold_acceptance.rs); feedback alone (no
             // feedforward) tracks a ramp about twice as loosely as before.
             pid: PidConfig {
                 kp: 60.0,
@@ -119,10 +119,10 @@ impl AxisConfig {
             // the estimate followed the noise, P and D passed it on, and the thrust map's
             // inverse (steepest near zero force) turned it into a vertical command of
             // 20–30 % RMS reversing several times a second at a steady hold
-            // (tests/depth_hold_chatter.rs). Slow unmodelled loads are the bias state's
+            // (tests/it/depth_hold_chatter.rs). Slow unmodelled loads are the bias state's
             // job. Not lower: the force noise is also the room left for an imperfect
             // plant model, and at 0.05 N/√Hz a lab-calibrated model2 as the control plant
-            // tracked worse than no feedforward (topside/tests/model_loop.rs).
+            // tracked worse than no feedforward (topside/tests/it/model_loop.rs).
             observer: ChannelNoise {
                 force_noise: 0.1,
                 bias_noise: 0.05,

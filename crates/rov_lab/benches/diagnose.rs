@@ -12,7 +12,7 @@
 //!
 //! `cargo bench -p rov_lab --bench diagnose` (`-- growth` for the growth group only)
 
-#[path = "../tests/common/mod.rs"]
+#[path = "../tests/it/common/mod.rs"]
 mod common;
 
 use criterion::{Criterion, criterion_group, criterion_main};

@@ -98,7 +98,7 @@ fn exp_station_dive() {
     }
 }
 
-/// The GUI's synthetic case (crates/rov_gui/tests/gui.rs): model3 in the simulator with
+/// The GUI's synthetic case (crates/rov_gui/tests/it/gui.rs): model3 in the simulator with
 /// the vertical thruster 25 mm forward of the CO, stepped thrust of both signs, 180 s at
 /// 10 Hz, split two thirds / one third as the lab tab splits it.
 fn gui_case() -> (Run, Run) {
