@@ -26,6 +26,7 @@ fn set(h: &StationHandle, model: Option<AutopilotModel>, confirmed: bool) {
 
 #[test]
 fn the_autopilot_model_is_configured_changed_and_kept_on_a_bad_one() {
+    let _alone = crate::one_at_a_time();
     let cfg = RuntimeConfig {
         gamepad: false,
         autopilot_model: Some(weak_reverse("learned.toml")),

@@ -44,6 +44,7 @@ fn model3_dive() -> MeasurementSeries {
 
 #[test]
 fn the_replay_overlay_is_the_lab_engines_prediction() {
+    let _alone = crate::one_at_a_time();
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("m3.mcap");
     rov_session::import_csv(&model3_dive().to_csv(), "m3.csv", &path).unwrap();

@@ -652,6 +652,7 @@ fn scenario(name: &str, comeback: Comeback) -> Figures {
 
 #[test]
 fn pty_destroyed_and_recreated_at_the_same_path() {
+    let _alone = crate::one_at_a_time();
     let f = scenario("same_path", Comeback::SamePath);
     // Attempts at +0.25, +0.75, +1.75 s: the pty is back at 1.2 s, found at 1.75 s.
     assert!(f.reconnect_ms <= 2_500.0, "{}", f.reconnect_ms);
@@ -659,12 +660,14 @@ fn pty_destroyed_and_recreated_at_the_same_path() {
 
 #[test]
 fn pty_recreated_at_another_path_found_by_id() {
+    let _alone = crate::one_at_a_time();
     let f = scenario("by_id", Comeback::ById);
     assert!(f.reconnect_ms <= 2_500.0, "{}", f.reconnect_ms);
 }
 
 #[test]
 fn pty_recreated_at_another_path_found_by_probing() {
+    let _alone = crate::one_at_a_time();
     let f = scenario("scan", Comeback::Scan);
     // Probing pings each candidate; on a loaded machine (CI at load average 10) one ping
     // can go unanswered in its window and the next attempt comes 1 s later by the backoff.

@@ -164,6 +164,7 @@ fn assert_soak(s: &Soak, max_growth_kb: u64) {
 
 #[test]
 fn soak_twenty_minutes() {
+    let _alone = crate::one_at_a_time();
     let path = scratch("soak20.mcap");
     let hours = 20.0 / 60.0;
     let s = soak(&path, hours, 300.0);
@@ -176,6 +177,7 @@ fn soak_twenty_minutes() {
 #[test]
 #[ignore = "8 hours of virtual time: minutes of wall time; run with --ignored --nocapture"]
 fn soak_eight_hours() {
+    let _alone = crate::one_at_a_time();
     let path = scratch("soak8h.mcap");
     let s = soak(&path, 8.0, 3600.0);
     print(&s, 8.0);

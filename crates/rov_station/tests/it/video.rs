@@ -50,6 +50,7 @@ fn settings(source: &str) -> VideoSettings {
 
 #[test]
 fn the_gstreamer_test_source_reaches_the_station_as_640x480_at_25_fps() {
+    let _alone = crate::one_at_a_time();
     let _s = serial();
     let clock = Instant::now();
     let v = StationVideo::start_live(
@@ -102,6 +103,7 @@ fn the_gstreamer_test_source_reaches_the_station_as_640x480_at_25_fps() {
 
 #[test]
 fn a_source_killed_mid_run_shows_no_video_within_1_s_and_misses_no_control_tick() {
+    let _alone = crate::one_at_a_time();
     let _s = serial();
     let port = free_udp_port();
     let mut sender = udp_sender(port);
@@ -163,6 +165,7 @@ fn a_source_killed_mid_run_shows_no_video_within_1_s_and_misses_no_control_tick(
 
 #[test]
 fn a_bad_source_leaves_the_station_running_without_video_and_says_why() {
+    let _alone = crate::one_at_a_time();
     let _s = serial();
     let h = Runtime::start(RuntimeConfig {
         gamepad: false,
@@ -193,6 +196,7 @@ fn a_bad_source_leaves_the_station_running_without_video_and_says_why() {
 /// before the seek time, and its pixels carry that capture time.
 #[test]
 fn replay_shows_the_frame_of_the_seek_time() {
+    let _alone = crate::one_at_a_time();
     let _s = serial();
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("video.mcap");
@@ -279,6 +283,7 @@ fn lower_structure(f: &VideoFrame) -> f64 {
 /// camera follows the vehicle's depth and attitude with the lights off.
 #[test]
 fn the_builtin_20_s_dive_visibly_changes_the_picture_with_lights_off() {
+    let _alone = crate::one_at_a_time();
     let (mut st, handle) = VirtualStation::new(RuntimeConfig {
         gamepad: false,
         ..RuntimeConfig::default()
