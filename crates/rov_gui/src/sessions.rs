@@ -12,6 +12,8 @@ use std::path::{Path, PathBuf};
 use std::sync::mpsc::{Receiver, channel};
 use std::time::SystemTime;
 
+use crate::FileError;
+
 /// One recording in the list.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SessionSummary {
@@ -198,12 +200,17 @@ impl SessionBrowser {
 /// export` writes); returns a line for the pilot.
 ///
 /// # Errors
-/// A message naming the file.
-pub fn export_csv(session_path: &Path, out: &Path) -> Result<String, String> {
-    let session =
-        rov_session::open(session_path).map_err(|e| format!("{}: {e}", session_path.display()))?;
-    let csv = rov_session::export_csv(&session).map_err(|e| e.to_string())?;
-    std::fs::write(out, &csv.text).map_err(|e| format!("{}: {e}", out.display()))?;
+/// [`FileError`] naming the file.
+pub fn export_csv(session_path: &Path, out: &Path) -> Result<String, FileError> {
+    let session = rov_session::open(session_path).map_err(|e| FileError::OpenSession {
+        path: session_path.to_path_buf(),
+        source: Box::new(e),
+    })?;
+    let csv = rov_session::export_csv(&session)?;
+    std::fs::write(out, &csv.text).map_err(|source| FileError::Write {
+        path: out.to_path_buf(),
+        source,
+    })?;
     Ok(format!(
         "exported {} rows to {}{}",
         csv.rows,

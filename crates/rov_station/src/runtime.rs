@@ -344,8 +344,17 @@ pub enum RuntimeError {
     #[error("session: {0}")]
     Session(#[from] rov_session::SessionError),
     /// A thread could not be started.
-    #[error("cannot start a thread: {0}")]
-    Thread(String),
+    #[error("cannot start a thread ({name}): {source}")]
+    Thread {
+        /// The thread's name.
+        name: String,
+        /// The OS error.
+        #[source]
+        source: std::io::Error,
+    },
+    /// The simulated vehicle's thread ended before handing over its runner.
+    #[error("cannot start a thread: the simulated vehicle did not start")]
+    VehicleDidNotStart,
 }
 
 /// A fresh recording file in `dir`: `session-<unix time>.mcap` (one naming rule for the
@@ -654,5 +663,8 @@ pub(crate) fn spawn_named(
     std::thread::Builder::new()
         .name(name.into())
         .spawn(f)
-        .map_err(|e| RuntimeError::Thread(e.to_string()))
+        .map_err(|source| RuntimeError::Thread {
+            name: name.to_string(),
+            source,
+        })
 }

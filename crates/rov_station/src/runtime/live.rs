@@ -113,9 +113,9 @@ pub(crate) fn start(cfg: RuntimeConfig, models: ModelSet) -> Result<StationHandl
                     }
                 })?;
                 let _ = helper.join();
-                let runner = runner_rx.recv().map_err(|_| {
-                    RuntimeError::Thread("the simulated vehicle did not start".into())
-                })?;
+                let runner = runner_rx
+                    .recv()
+                    .map_err(|_| RuntimeError::VehicleDidNotStart)?;
                 truth_tap = Some(tap);
                 (Box::new(station_end), Source::Sim, Some(runner))
             }

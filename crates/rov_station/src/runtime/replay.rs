@@ -90,7 +90,9 @@ impl Overlay {
 /// The model of the overlay: the feed-forward model of the first autopilot record that
 /// names one, loaded by the one loader ([`rov_lab::load_model`]); model3 otherwise, with
 /// a note saying why when the named model does not load.
-fn overlay_model(session: &Session) -> Result<(String, rov_lab::LabModel, Option<String>), String> {
+fn overlay_model(
+    session: &Session,
+) -> Result<(String, rov_lab::LabModel, Option<String>), OverlayError> {
     let named = session
         .read(ReadOptions::topics(&[Topic::Autopilot.name()]))
         .filter_map(|m| match m.decode_any() {
@@ -124,30 +126,30 @@ fn overlay_model(session: &Session) -> Result<(String, rov_lab::LabModel, Option
             }
         }
     }
-    let m3 = rov_lab::load_model(&ModelId::Base(BaseModel::Model3), None)
-        .map_err(|e| format!("no model overlay: {e}"))?;
+    let m3 = rov_lab::load_model(&ModelId::Base(BaseModel::Model3), None)?;
     Ok(("model3".to_string(), m3, note))
 }
 
 /// The replay's model overlay of a session (see the module docs) and a note when the
 /// session's own model was replaced by model3, or why there is no overlay.
-pub fn model_overlay(session: &Session) -> Result<(Overlay, Option<String>), String> {
+///
+/// # Errors
+/// [`OverlayError`]: the session is too long, its measurements do not read, or the
+/// model does not load or run.
+pub fn model_overlay(session: &Session) -> Result<(Overlay, Option<String>), OverlayError> {
     if session.duration_s() > OVERLAY_MAX_S {
-        return Err(format!(
-            "no model overlay: the session is longer than {:.0} h",
-            OVERLAY_MAX_S / 3600.0
-        ));
+        return Err(OverlayError::TooLong {
+            max_h: OVERLAY_MAX_S / 3600.0,
+        });
     }
     let (name, model, note) = overlay_model(session)?;
-    let (series, times_ns, _) =
-        rov_session::measurements(session).map_err(|e| format!("no model overlay: {e}"))?;
+    let (series, times_ns, _) = rov_session::measurements(session)?;
     let start_ns = session.start_ns().unwrap_or(0);
     let offset_s = match (series.rows.first(), times_ns.first()) {
         (Some(r), Some(ns)) => ns.saturating_sub(start_ns) as f64 * 1e-9 - r.time_s,
         _ => 0.0,
     };
-    let prediction = rov_lab::engine::predict_series(&model, &series, &name, HORIZON_S)
-        .map_err(|e| format!("no model overlay: {e}"))?;
+    let prediction = rov_lab::engine::predict_series(&model, &series, &name, HORIZON_S)?;
     Ok((
         Overlay {
             model: name,
@@ -156,6 +158,24 @@ pub fn model_overlay(session: &Session) -> Result<(Overlay, Option<String>), Str
         },
         note,
     ))
+}
+
+/// Why a replay has no model overlay (the replay goes on without).
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum OverlayError {
+    /// The session is longer than the overlay is computed for.
+    #[error("no model overlay: the session is longer than {max_h:.0} h")]
+    TooLong {
+        /// The limit, hours.
+        max_h: f64,
+    },
+    /// The session's measurements do not read.
+    #[error("no model overlay: {0}")]
+    Session(#[from] rov_session::SessionError),
+    /// The model does not load or its prediction fails.
+    #[error("no model overlay: {0}")]
+    Lab(#[from] rov_lab::LabError),
 }
 
 /// The pipeline fed with recorded messages, and the model prediction.
@@ -282,7 +302,7 @@ fn index_session(session: &Session, state: &Mutex<IndexState>, cancel: &AtomicBo
     let mut feed = Feed::new(Source::None, start_ns);
     let (overlay, note) = match model_overlay(session) {
         Ok((o, note)) => (Some(Arc::new(o)), note),
-        Err(e) => (None, Some(e)),
+        Err(e) => (None, Some(e.to_string())),
     };
     feed.overlay.clone_from(&overlay);
     if let Ok(mut g) = state.lock() {
