@@ -383,6 +383,7 @@ impl LabState {
             .name("lab-worker".into())
             .spawn(move || {
                 let r = p.run(|| Ok(job(&p))).unwrap_or(LabResult::Cancelled(what));
+                // The lab page has gone (app closing) if this fails: nobody waits.
                 let _ = tx.send(r);
             });
         match spawned {

@@ -99,24 +99,37 @@ impl Backend for RealBackend {
     }
 
     fn ports(&mut self) -> Vec<String> {
-        rov_driver::available_port_names().unwrap_or_default()
+        // The port field stays editable: a failed listing offers no names, and says why.
+        rov_driver::available_port_names().unwrap_or_else(|e| {
+            tracing::warn!("cannot list the serial ports: {e}");
+            Vec::new()
+        })
     }
 
     fn autodetect(&mut self, ports: Vec<String>) -> Receiver<AutodetectResult> {
         let (tx, rx) = channel();
         let node = self.config.link.node;
+        let failed = tx.clone();
         let spawned = std::thread::Builder::new()
             .name("autodetect".into())
             .spawn(move || {
                 let r = rov_driver::autodetect(&ports, node, Duration::from_millis(400));
+                // The Connection tab has gone if this fails: nobody waits for it.
                 let _ = tx.send(AutodetectResult {
                     found: r.found.map(|p| p.port),
                     tried: r.tried,
                 });
             });
-        if spawned.is_err() {
-            // The receiver then reports nothing; the GUI shows the spinner until the
-            // pilot tries again.
+        if let Err(e) = spawned {
+            // The tab shows the reason instead of a spinner; `rx` is still held here, so
+            // the send cannot fail.
+            let _ = failed.send(AutodetectResult {
+                found: None,
+                tried: vec![(
+                    "autodetect".into(),
+                    Some(format!("cannot start the autodetect thread: {e}")),
+                )],
+            });
         }
         rx
     }

@@ -597,7 +597,7 @@ impl StationHandle {
         let _ = self.tx.try_send(RuntimeCommand::Shutdown);
         self.shared.running.store(false, Ordering::Relaxed);
         for t in self.threads.drain(..) {
-            let _ = t.join();
+            join_or_warn(t);
         }
         if let Some(v) = &self.video {
             v.stop();
@@ -654,6 +654,15 @@ pub(crate) fn spawn_raised(
         lock(&shared.priorities).push((label, granted));
         f();
     })
+}
+
+/// Waits for a thread; one that panicked is said (its panic message went to stderr),
+/// not ignored.
+pub(crate) fn join_or_warn<T>(t: JoinHandle<T>) {
+    let name = t.thread().name().unwrap_or("unnamed").to_string();
+    if t.join().is_err() {
+        tracing::warn!("station thread {name} panicked");
+    }
 }
 
 pub(crate) fn spawn_named(

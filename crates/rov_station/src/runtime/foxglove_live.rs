@@ -296,7 +296,7 @@ impl Drop for LiveServer {
         if let Some(f) = self.feeder.take()
             && f.is_finished()
         {
-            let _ = f.join();
+            crate::runtime::join_or_warn(f);
         }
     }
 }

@@ -366,7 +366,7 @@ impl Recorder {
         if !self.counters.failed.load(Ordering::Relaxed) {
             return None;
         }
-        self.error.lock().map_or(None, |e| e.clone())
+        crate::runtime::lock(&self.error).clone()
     }
 
     /// Stops: drains the queue, writes the summary and syncs.
@@ -422,9 +422,7 @@ fn run(
 ) -> Result<WriteSummary, RecorderError> {
     let fail = |e: String| {
         counters.failed.store(true, Ordering::Relaxed);
-        if let Ok(mut g) = error.lock() {
-            *g = Some(e);
-        }
+        *crate::runtime::lock(error) = Some(e);
     };
     let write = |w: &mut SessionWriter, item: RecordItem| {
         // Once writing failed the file is not extended (the error is shown).

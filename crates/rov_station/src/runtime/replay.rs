@@ -305,7 +305,9 @@ fn index_session(session: &Session, state: &Mutex<IndexState>, cancel: &AtomicBo
         Err(e) => (None, Some(e.to_string())),
     };
     feed.overlay.clone_from(&overlay);
-    if let Ok(mut g) = state.lock() {
+    // `lock`: a poisoned index (a panic while publishing) is still read, not dropped.
+    {
+        let mut g = lock(state);
         g.overlay = overlay;
         g.overlay_note = note;
     }
@@ -321,7 +323,8 @@ fn index_session(session: &Session, state: &Mutex<IndexState>, cancel: &AtomicBo
                    evs: &mut Vec<IndexedEvent>,
                    t: f64,
                    done: bool| {
-        if let Ok(mut g) = state.lock() {
+        {
+            let mut g = lock(state);
             for s in batch.drain(..) {
                 g.full.push(&s);
             }
@@ -386,7 +389,7 @@ impl Drop for ReplayEngine {
     fn drop(&mut self) {
         self.cancel.store(true, Ordering::Relaxed);
         if let Some(j) = self.indexer.take() {
-            let _ = j.join();
+            crate::runtime::join_or_warn(j);
         }
     }
 }
@@ -453,8 +456,8 @@ impl ReplayEngine {
             .rev()
             .find(|m| m.known() == Some(Topic::Nav))
             .map(|m| self.feed.t_s(m.t_ns));
-        let mut h = History::default();
-        if let Ok(g) = self.index.lock() {
+        let h = {
+            let g = lock(&self.index);
             let indexed = g.done || g.progress_s >= pos;
             // Tether turns at the last navigation record: from the checkpoint before it.
             if let Some(t_nav) = last_nav
@@ -472,7 +475,7 @@ impl ReplayEngine {
                     self.feed.pipeline.set_turns(turns + extra, now);
                 }
             }
-            h = History::with_capacity(g.full.capacity());
+            let mut h = History::with_capacity(g.full.capacity());
             for i in g.full.range(f64::NEG_INFINITY, pos) {
                 if let Some(s) = g.full.sample(i) {
                     h.push(&s);
@@ -480,7 +483,8 @@ impl ReplayEngine {
             }
             self.stale_history = !indexed;
             self.feed.rebuild_dive(&h, pos, &g.events);
-        }
+            h
+        };
         self.pending.clear();
         self.replace = Some(h);
         self.feed.pipeline.set_time(pos);
@@ -558,16 +562,13 @@ impl ReplayEngine {
                 "the file is damaged ({d}); replaying what is intact"
             ));
         }
-        let index = self
-            .index
-            .lock()
-            .map(|g| {
-                if let Some(n) = &g.overlay_note {
-                    warnings.push(n.clone());
-                }
-                g.events.clone()
-            })
-            .unwrap_or_default();
+        let index = {
+            let g = lock(&self.index);
+            if let Some(n) = &g.overlay_note {
+                warnings.push(n.clone());
+            }
+            g.events.clone()
+        };
         let (position_s, duration_s, playing, speed, messages) = (
             self.player.position_s(),
             self.player.duration_s(),

@@ -202,7 +202,7 @@ impl Drop for ReplayVideo {
         lock(&self.inner.request).stop = true;
         self.inner.wake.notify_one();
         if let Some(t) = self.thread.take() {
-            let _ = t.join();
+            crate::runtime::join_or_warn(t);
         }
     }
 }

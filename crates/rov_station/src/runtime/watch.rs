@@ -161,7 +161,7 @@ impl Drop for StationWatch {
             // Dropping the sender ends the thread's loop.
             self.runner = Runner::Failed;
             if let Some(j) = j {
-                let _ = j.join();
+                crate::runtime::join_or_warn(j);
             }
         }
     }
