@@ -505,3 +505,27 @@ impl PortMonitor {
         });
     }
 }
+
+#[cfg(test)]
+mod probe_failure_tests {
+    use super::*;
+
+    /// The failure's text is the outage summary's key ("/dev/ttyUSB1: no answer" ×12):
+    /// the same words as before the type, a vanished port shortened to its cause.
+    #[test]
+    fn probe_failures_read_as_the_outage_summary_counts_them() {
+        assert_eq!(ProbeFailure::NotPresent.to_string(), "not present");
+        assert_eq!(ProbeFailure::NoAnswer.to_string(), "no answer");
+        assert_eq!(ProbeFailure::WrongNode(3).to_string(), "answered as node 3");
+        let gone = ProbeFailure::from(TransportError::Closed {
+            port: "/dev/pts/9".into(),
+        });
+        assert_eq!(gone.to_string(), "gone (closed)");
+        let io = ProbeFailure::from(TransportError::Io {
+            port: "/dev/pts/9".into(),
+            source: std::io::Error::other("boom"),
+        });
+        assert_eq!(io.to_string(), "/dev/pts/9: I/O error: boom");
+        assert!(std::error::Error::source(&io).is_some());
+    }
+}
