@@ -106,16 +106,18 @@ fn overlay_model(
     if let Some(name) = named {
         let loaded = name
             .parse::<ModelId>()
-            .map_err(|e| e.to_string())
+            .map_err(NamedModelError::Name)
             .and_then(|id| {
                 let text = match &id {
                     ModelId::Base(_) => None,
-                    ModelId::File(p) => Some(
-                        std::fs::read_to_string(p)
-                            .map_err(|e| format!("cannot read {}: {e}", p.display()))?,
-                    ),
+                    ModelId::File(p) => Some(std::fs::read_to_string(p).map_err(|source| {
+                        NamedModelError::Read {
+                            path: p.clone(),
+                            source,
+                        }
+                    })?),
                 };
-                rov_lab::load_model(&id, text.as_deref()).map_err(|e| e.to_string())
+                Ok(rov_lab::load_model(&id, text.as_deref())?)
             });
         match loaded {
             Ok(m) => return Ok((name, m, None)),
@@ -158,6 +160,27 @@ pub fn model_overlay(session: &Session) -> Result<(Overlay, Option<String>), Ove
         },
         note,
     ))
+}
+
+/// Why the session's own model does not load (the overlay then shows model3, and a
+/// note says why).
+#[derive(Debug, thiserror::Error)]
+enum NamedModelError {
+    /// The recorded name is not a model name.
+    #[error(transparent)]
+    Name(#[from] rov_types::ModelIdError),
+    /// The recorded model file cannot be read here.
+    #[error("cannot read {}: {source}", path.display())]
+    Read {
+        /// The file.
+        path: PathBuf,
+        /// The OS error.
+        #[source]
+        source: std::io::Error,
+    },
+    /// The lab does not load it.
+    #[error(transparent)]
+    Load(#[from] rov_lab::LabError),
 }
 
 /// Why a replay has no model overlay (the replay goes on without).
