@@ -57,3 +57,47 @@ impl From<rov_lab::LabError> for FileError {
         Self::Lab(Box::new(e))
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Each loader names the file the pilot chose, with the lower crate's error kept
+    /// as the source.
+    #[test]
+    fn files_that_cannot_be_used_are_named() {
+        let root = std::env::temp_dir().join(format!("rov_gui_file_error_{}", std::process::id()));
+        std::fs::create_dir_all(&root).unwrap();
+        // A model file that is not there.
+        let missing = root.join("missing.toml");
+        let e = crate::autopilot_model::load_file(&missing).unwrap_err();
+        assert!(
+            matches!(&e, FileError::Read { path, .. } if path == &missing),
+            "{e:?}"
+        );
+        assert!(
+            e.to_string().starts_with(&missing.display().to_string()),
+            "{e}"
+        );
+        assert!(std::error::Error::source(&e).is_some());
+        // A session to export that is not an MCAP file: named, even if the session
+        // layer's words do not name it.
+        let text = root.join("notes.mcap");
+        std::fs::write(&text, b"not a session").unwrap();
+        let e = crate::sessions::export_csv(&text, &root.join("out.csv")).unwrap_err();
+        assert!(
+            matches!(&e, FileError::OpenSession { path, .. } if path == &text),
+            "{e:?}"
+        );
+        assert!(
+            e.to_string().starts_with(&text.display().to_string()),
+            "{e}"
+        );
+        // Lab data that is not a log: the lab's error, as it is.
+        let junk = root.join("junk.csv");
+        std::fs::write(&junk, b"a,b\n1,2\n").unwrap();
+        let e = crate::lab::load(&junk).map(|_| ()).unwrap_err();
+        assert!(matches!(&e, FileError::Lab(_)), "{e:?}");
+        std::fs::remove_dir_all(&root).ok();
+    }
+}
