@@ -9,17 +9,22 @@ use std::sync::mpsc::{Receiver, channel};
 use criterion::{Criterion, criterion_group, criterion_main};
 use rov_gui::{AutodetectResult, Backend, StationApp, Tab};
 use rov_station::runtime::{
-    AxisModeView, AxisView, Connection, History, HistorySample, StationHandle, StationView,
+    AxisModeView, AxisView, Connection, History, HistorySample, RuntimeError, StationHandle,
+    StationView,
 };
 
 struct NoBackend;
 
 impl Backend for NoBackend {
-    fn connect(&mut self, _c: &Connection) -> Result<StationHandle, String> {
-        Err("bench".into())
+    fn connect(&mut self, _c: &Connection) -> Result<StationHandle, RuntimeError> {
+        Err(RuntimeError::Transport(
+            rov_driver::TransportError::Unsupported("no station in the bench".into()),
+        ))
     }
-    fn open_replay(&mut self, _p: &Path) -> Result<StationHandle, String> {
-        Err("bench".into())
+    fn open_replay(&mut self, _p: &Path) -> Result<StationHandle, RuntimeError> {
+        Err(RuntimeError::Transport(
+            rov_driver::TransportError::Unsupported("no replay in the bench".into()),
+        ))
     }
     fn ports(&mut self) -> Vec<String> {
         Vec::new()

@@ -16,7 +16,8 @@ use egui::{Color32, Key, RichText, Ui, vec2};
 use rov_control::PilotInput;
 use rov_station::StationCommand;
 use rov_station::runtime::{
-    AlarmKind, Connection, GainCommand, History, RuntimeCommand, StationHandle, StationView,
+    AlarmKind, Connection, GainCommand, History, RuntimeCommand, RuntimeError, StationHandle,
+    StationView,
 };
 
 use crate::theme;
@@ -26,13 +27,13 @@ pub trait Backend {
     /// Starts a live station.
     ///
     /// # Errors
-    /// A message for the pilot.
-    fn connect(&mut self, connection: &Connection) -> Result<StationHandle, String>;
+    /// Why the station did not start (shown to the pilot).
+    fn connect(&mut self, connection: &Connection) -> Result<StationHandle, RuntimeError>;
     /// Opens a recorded session for replay.
     ///
     /// # Errors
-    /// A message for the pilot.
-    fn open_replay(&mut self, path: &Path) -> Result<StationHandle, String>;
+    /// Why the session could not be replayed (shown to the pilot).
+    fn open_replay(&mut self, path: &Path) -> Result<StationHandle, RuntimeError>;
     /// Serial ports to offer.
     fn ports(&mut self) -> Vec<String>;
     /// Pings the ports in the background; the receiver yields one result.
@@ -197,7 +198,8 @@ pub struct StationApp {
     /// The Model lab's camera frame.
     pub(crate) lab_video: crate::lab_video::LabVideo,
     /// Capture devices found (Connection tab), or why the listing failed.
-    pub(crate) capture_devices: Option<Result<Vec<rov_video::CaptureDevice>, String>>,
+    pub(crate) capture_devices:
+        Option<Result<Vec<rov_video::CaptureDevice>, rov_video::VideoError>>,
     /// What the last frame laid out (for the clipping checks).
     pub(crate) layout: crate::layout::LayoutAudit,
     /// The station configuration file the Settings tab saves to.
@@ -596,7 +598,7 @@ impl StationApp {
     /// is picked out of the station's events.
     pub(crate) fn send_autopilot_model(
         &mut self,
-        model: Result<rov_station::AutopilotModel, String>,
+        model: Result<rov_station::AutopilotModel, crate::FileError>,
         confirmed: bool,
     ) {
         let mut dropped = false;

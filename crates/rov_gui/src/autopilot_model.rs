@@ -7,6 +7,8 @@
 use std::path::{Path, PathBuf};
 
 use rov_station::AutopilotModel;
+
+use crate::FileError;
 use rov_station::runtime::{RuntimeCommand, StationView};
 
 /// How long the confirm button must be held while armed, s (as long as hold-to-arm).
@@ -60,12 +62,15 @@ impl ModelsFolder {
 ///
 /// # Errors
 /// The file cannot be read, is not a model, or has no valid heave/yaw plant.
-pub fn load_file(path: &Path) -> Result<AutopilotModel, String> {
+pub fn load_file(path: &Path) -> Result<AutopilotModel, FileError> {
     let label = path.display().to_string();
-    let text = std::fs::read_to_string(path).map_err(|e| format!("{label}: {e}"))?;
+    let text = std::fs::read_to_string(path).map_err(|source| FileError::Read {
+        path: path.to_path_buf(),
+        source,
+    })?;
     let id = rov_types::ModelId::File(path.to_path_buf());
-    let model = rov_lab::load_model(&id, Some(&text)).map_err(|e| e.to_string())?;
-    AutopilotModel::from_vehicle_model(&label, &model).map_err(|e| e.to_string())
+    let model = rov_lab::load_model(&id, Some(&text))?;
+    Ok(AutopilotModel::from_vehicle_model(&label, &model)?)
 }
 
 /// The station's answer to the last model change.
@@ -96,7 +101,7 @@ impl ModelSwitch {
         &mut self,
         app_cmd: impl FnOnce(RuntimeCommand),
         view: &StationView,
-        model: Result<AutopilotModel, String>,
+        model: Result<AutopilotModel, FileError>,
         confirmed: bool,
     ) {
         match model {
@@ -110,7 +115,7 @@ impl ModelSwitch {
             }
             Err(e) => {
                 self.after = None;
-                self.result = Some(SwitchResult::Refused(e));
+                self.result = Some(SwitchResult::Refused(e.to_string()));
             }
         }
     }

@@ -26,16 +26,26 @@ pub struct ConnectionState {
 
 impl ConnectionState {
     pub(crate) fn poll(&mut self) {
-        if let Some(rx) = &self.pending
-            && let Ok(r) = rx.try_recv()
-        {
-            if let Some(p) = &r.found {
-                self.port.clone_from(p);
-                self.serial = true;
-            }
-            self.result = Some(r);
-            self.pending = None;
+        let Some(rx) = &self.pending else { return };
+        let r = match rx.try_recv() {
+            Ok(r) => r,
+            Err(std::sync::mpsc::TryRecvError::Empty) => return,
+            // The search ended without an answer (its thread panicked): say so rather
+            // than spin forever.
+            Err(std::sync::mpsc::TryRecvError::Disconnected) => crate::AutodetectResult {
+                found: None,
+                tried: vec![(
+                    "autodetect".into(),
+                    Some("the search stopped without an answer".into()),
+                )],
+            },
+        };
+        if let Some(p) = &r.found {
+            self.port.clone_from(p);
+            self.serial = true;
         }
+        self.result = Some(r);
+        self.pending = None;
     }
 }
 

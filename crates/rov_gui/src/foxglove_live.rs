@@ -4,7 +4,7 @@
 //! gets a tap on it. Save writes `[foxglove]` with the other settings.
 
 use egui::{RichText, Ui};
-use rov_station::runtime::foxglove_live::{LiveServer, LiveStatus};
+use rov_station::runtime::foxglove_live::{ConfiguredLiveError, LiveServer, LiveStatus};
 use rov_station::runtime::settings::FoxgloveSettings;
 use rov_station::runtime::{RuntimeCommand, StationHandle};
 
@@ -114,7 +114,7 @@ impl StationApp {
     pub fn with_foxglove(
         mut self,
         settings: FoxgloveSettings,
-        server: Result<Option<LiveServer>, String>,
+        server: Result<Option<LiveServer>, ConfiguredLiveError>,
     ) -> Self {
         self.set_foxglove(settings, server);
         self
@@ -125,7 +125,7 @@ impl StationApp {
     pub fn set_foxglove(
         &mut self,
         settings: FoxgloveSettings,
-        server: Result<Option<LiveServer>, String>,
+        server: Result<Option<LiveServer>, ConfiguredLiveError>,
     ) {
         self.foxglove.settings = settings;
         self.foxglove.server = None;
@@ -134,7 +134,7 @@ impl StationApp {
                 self.foxglove.server = s;
                 self.foxglove.error = None;
             }
-            Err(e) => self.foxglove.error = Some(e),
+            Err(e) => self.foxglove.error = Some(e.to_string()),
         }
         if let Some(h) = &self.live {
             self.foxglove.attach(h);

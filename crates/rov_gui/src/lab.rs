@@ -21,8 +21,9 @@ use rov_lab::evaluate::evaluate;
 use rov_lab::lab::fit_with_effects;
 use rov_lab::lm::LmOptions;
 use rov_lab::progress::Progress;
-use rov_lab::{BaseKind, EffectId, LabModel, Run};
+use rov_lab::{BaseKind, EffectId, LabError, LabModel, Run};
 
+use crate::FileError;
 use crate::app::StationApp;
 use crate::theme;
 
@@ -161,8 +162,8 @@ impl Default for LabState {
 /// Loads a CSV or an MCAP session into lab runs.
 ///
 /// # Errors
-/// A message when the file cannot be read or has too little data.
-pub fn load(path: &Path) -> Result<LabData, String> {
+/// [`FileError`] when the file cannot be read or has too little data.
+pub fn load(path: &Path) -> Result<LabData, FileError> {
     load_window(path, None)
 }
 
@@ -170,8 +171,8 @@ pub fn load(path: &Path) -> Result<LabData, String> {
 /// stretch around a model-watch alert ("Open in lab").
 ///
 /// # Errors
-/// A message when the file cannot be read or the window holds too little data.
-pub fn load_window(path: &Path, window: Option<(f64, f64)>) -> Result<LabData, String> {
+/// [`FileError`] when the file cannot be read or the window holds too little data.
+pub fn load_window(path: &Path, window: Option<(f64, f64)>) -> Result<LabData, FileError> {
     let name = path
         .file_name()
         .map_or_else(|| "data".to_string(), |n| n.to_string_lossy().into_owned());
@@ -184,15 +185,17 @@ pub fn load_window(path: &Path, window: Option<(f64, f64)>) -> Result<LabData, S
         .is_some_and(|e| e.eq_ignore_ascii_case("mcap"));
     let (log, mut warnings) = if is_mcap {
         // Streamed, and decimated when long (rov_lab::stream), as `topside lab` reads it.
-        let session = rov_session::open(path).map_err(|e| e.to_string())?;
+        let session = rov_session::open(path)?;
         let nav = session.count(rov_session::Topic::Nav.name());
         let mut stream = rov_lab::stream::LogStream::new(&name, nav);
-        let done = rov_session::measurements_each(&session, &mut |_, row| stream.push(row))
-            .map_err(|e| e.to_string())?;
+        let done = rov_session::measurements_each(&session, &mut |_, row| stream.push(row))?;
         (stream.finish_log(done.present), done.warnings)
     } else {
-        let bytes = std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))?;
-        let log = rov_lab::loader::read_bytes(&bytes, &name).map_err(|e| e.to_string())?;
+        let bytes = std::fs::read(path).map_err(|source| FileError::Read {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        let log = rov_lab::loader::read_bytes(&bytes, &name)?;
         (log, Vec::new())
     };
     let log = match window {
@@ -200,7 +203,7 @@ pub fn load_window(path: &Path, window: Option<(f64, f64)>) -> Result<LabData, S
         None => log,
     };
     let cut = log.len() * 2 / 3;
-    let runs = |l: &rov_lab::loader::LoadedLog| l.runs().map_err(|e| e.to_string());
+    let runs = rov_lab::loader::LoadedLog::runs;
     let full = runs(&log)?;
     let train = runs(&log.rows(0..cut, &format!("{name} (training)")))?;
     let val = runs(&log.rows(cut..log.len(), &format!("{name} (held out)")))?;
@@ -217,8 +220,8 @@ pub fn load_window(path: &Path, window: Option<(f64, f64)>) -> Result<LabData, S
 /// Compares a model with runs (free run).
 ///
 /// # Errors
-/// The lab's error text.
-pub fn compare(model: &LabModel, runs: &[Run]) -> Result<Comparison, String> {
+/// The lab's error.
+pub fn compare(model: &LabModel, runs: &[Run]) -> Result<Comparison, LabError> {
     compare_on(model, runs, WHOLE_RUN)
 }
 
@@ -226,9 +229,9 @@ pub fn compare(model: &LabModel, runs: &[Run]) -> Result<Comparison, String> {
 /// runs; the plotted lines follow the runs one after the other, broken between them.
 ///
 /// # Errors
-/// The lab's error text.
-pub fn compare_on(model: &LabModel, runs: &[Run], scope: &str) -> Result<Comparison, String> {
-    let eval = evaluate(model, runs).map_err(|e| e.to_string())?;
+/// The lab's error.
+pub fn compare_on(model: &LabModel, runs: &[Run], scope: &str) -> Result<Comparison, LabError> {
+    let eval = evaluate(model, runs)?;
     // The runs' samples one after the other, a missing sample between two runs (the
     // plotted line breaks there).
     let joined = |per_run: &dyn Fn(usize, &Run) -> Option<Vec<f64>>| -> Vec<f64> {
@@ -380,6 +383,7 @@ impl LabState {
             .name("lab-worker".into())
             .spawn(move || {
                 let r = p.run(|| Ok(job(&p))).unwrap_or(LabResult::Cancelled(what));
+                // The lab page has gone (app closing) if this fails: nobody waits.
                 let _ = tx.send(r);
             });
         match spawned {
@@ -406,7 +410,7 @@ impl LabState {
         let p = path.to_path_buf();
         self.spawn("loading", move || match load_window(&p, window) {
             Ok(d) => LabResult::Loaded(d),
-            Err(e) => LabResult::Failed(e),
+            Err(e) => LabResult::Failed(e.to_string()),
         });
     }
 
@@ -433,7 +437,7 @@ impl LabState {
             };
             match compare_on(&m, &run, &scope) {
                 Ok(c) => LabResult::Compared(c),
-                Err(e) => LabResult::Failed(e),
+                Err(e) => LabResult::Failed(e.to_string()),
             }
         });
     }
@@ -462,7 +466,7 @@ impl LabState {
             };
             match compare_on(&diag.calibrated, &val, HELD_OUT) {
                 Ok(c) => LabResult::Diagnosed(Box::new(diag), c),
-                Err(e) => LabResult::Failed(e),
+                Err(e) => LabResult::Failed(e.to_string()),
             }
         });
     }
@@ -512,7 +516,7 @@ impl LabState {
             };
             match compare_on(&fitted, &val, HELD_OUT) {
                 Ok(c) => LabResult::Added(Box::new(fitted), c, label),
-                Err(err) => LabResult::Failed(err),
+                Err(err) => LabResult::Failed(err.to_string()),
             }
         });
     }
@@ -851,7 +855,7 @@ fn use_for_autopilot(app: &mut StationApp, ui: &mut Ui) {
         && let Some(m) = app.lab.model.as_ref()
     {
         let plant =
-            rov_station::AutopilotModel::from_vehicle_model(&label, m).map_err(|e| e.to_string());
+            rov_station::AutopilotModel::from_vehicle_model(&label, m).map_err(FileError::from);
         app.send_autopilot_model(plant, confirmed);
     }
 }

@@ -47,7 +47,9 @@ impl LabVideo {
                 self.duration_s = s.duration_s();
                 match ReplayVideo::start(s) {
                     Ok(p) => self.player = p,
-                    Err(e) => self.error = Some(e),
+                    Err(e) => {
+                        self.error = Some(format!("cannot start the replay video thread: {e}"));
+                    }
                 }
             }
             Err(e) => self.error = Some(e.to_string()),

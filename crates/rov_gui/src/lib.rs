@@ -19,6 +19,7 @@ pub mod app;
 pub mod autopilot_model;
 mod connection;
 mod dive;
+pub mod error;
 pub mod fly;
 mod foxglove_live;
 mod help;
@@ -44,6 +45,7 @@ use std::sync::mpsc::{Receiver, channel};
 use std::time::Duration;
 
 pub use app::{AutodetectResult, Backend, ScreenshotRequest, StationApp, Tab};
+pub use error::FileError;
 pub use fly::MainView;
 
 /// The keys the F1 window lists (for tests and documentation).
@@ -61,7 +63,7 @@ pub fn help_lines() -> Vec<(&'static str, &'static str)> {
         .copied()
         .collect()
 }
-use rov_station::runtime::{Connection, Runtime, RuntimeConfig, StationHandle};
+use rov_station::runtime::{Connection, Runtime, RuntimeConfig, RuntimeError, StationHandle};
 
 /// The real backend: stations on their own threads ([`Runtime`]).
 #[derive(Debug, Clone)]
@@ -84,37 +86,50 @@ impl RealBackend {
 }
 
 impl Backend for RealBackend {
-    fn connect(&mut self, connection: &Connection) -> Result<StationHandle, String> {
+    fn connect(&mut self, connection: &Connection) -> Result<StationHandle, RuntimeError> {
         let cfg = RuntimeConfig {
             connection: connection.clone(),
             ..self.config.clone()
         };
-        Runtime::start(cfg).map_err(|e| e.to_string())
+        Runtime::start(cfg)
     }
 
-    fn open_replay(&mut self, path: &Path) -> Result<StationHandle, String> {
-        Runtime::replay(path).map_err(|e| e.to_string())
+    fn open_replay(&mut self, path: &Path) -> Result<StationHandle, RuntimeError> {
+        Runtime::replay(path)
     }
 
     fn ports(&mut self) -> Vec<String> {
-        rov_driver::available_port_names().unwrap_or_default()
+        // The port field stays editable: a failed listing offers no names, and says why.
+        rov_driver::available_port_names().unwrap_or_else(|e| {
+            tracing::warn!("cannot list the serial ports: {e}");
+            Vec::new()
+        })
     }
 
     fn autodetect(&mut self, ports: Vec<String>) -> Receiver<AutodetectResult> {
         let (tx, rx) = channel();
         let node = self.config.link.node;
+        let failed = tx.clone();
         let spawned = std::thread::Builder::new()
             .name("autodetect".into())
             .spawn(move || {
                 let r = rov_driver::autodetect(&ports, node, Duration::from_millis(400));
+                // The Connection tab has gone if this fails: nobody waits for it.
                 let _ = tx.send(AutodetectResult {
                     found: r.found.map(|p| p.port),
                     tried: r.tried,
                 });
             });
-        if spawned.is_err() {
-            // The receiver then reports nothing; the GUI shows the spinner until the
-            // pilot tries again.
+        if let Err(e) = spawned {
+            // The tab shows the reason instead of a spinner; `rx` is still held here, so
+            // the send cannot fail.
+            let _ = failed.send(AutodetectResult {
+                found: None,
+                tried: vec![(
+                    "autodetect".into(),
+                    Some(format!("cannot start the autodetect thread: {e}")),
+                )],
+            });
         }
         rx
     }
@@ -163,16 +178,16 @@ pub fn native_options(size: Option<[f32; 2]>) -> eframe::NativeOptions {
 /// Opens the station window and runs until it is closed.
 ///
 /// # Errors
-/// eframe's error text when the window cannot be created.
-pub fn run_native(app: StationApp) -> Result<(), String> {
+/// eframe's error when the window cannot be created.
+pub fn run_native(app: StationApp) -> Result<(), eframe::Error> {
     run_native_sized(app, None)
 }
 
 /// [`run_native`] with a window size (points).
 ///
 /// # Errors
-/// eframe's error text when the window cannot be created.
-pub fn run_native_sized(app: StationApp, size: Option<[f32; 2]>) -> Result<(), String> {
+/// eframe's error when the window cannot be created.
+pub fn run_native_sized(app: StationApp, size: Option<[f32; 2]>) -> Result<(), eframe::Error> {
     eframe::run_native(
         "topside",
         native_options(size),
@@ -181,5 +196,4 @@ pub fn run_native_sized(app: StationApp, size: Option<[f32; 2]>) -> Result<(), S
             Ok(Box::new(app))
         }),
     )
-    .map_err(|e| e.to_string())
 }

@@ -12,6 +12,8 @@ use std::path::{Path, PathBuf};
 use std::sync::mpsc::{Receiver, channel};
 use std::time::SystemTime;
 
+use crate::FileError;
+
 /// One recording in the list.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SessionSummary {
@@ -59,10 +61,15 @@ pub fn summarize(path: &Path, size_bytes: u64, modified_unix_s: f64) -> SessionS
                     s.started_unix_s = info.started_unix_s;
                 }
             }
-            for (_, e) in session
+            let events = session
                 .records::<rov_session::EventRecord>()
-                .unwrap_or_default()
-            {
+                .unwrap_or_else(|e| {
+                    // The list still shows the session; its notes are missing, and why
+                    // is said.
+                    tracing::warn!("{}: dive notes unreadable: {e}", path.display());
+                    Vec::new()
+                });
+            for (_, e) in events {
                 match e.kind.as_str() {
                     "note" => s.notes.push(e.text),
                     "marker" => s.markers += 1,
@@ -140,7 +147,13 @@ impl SessionBrowser {
             .spawn(move || {
                 let mut out = Vec::new();
                 let mut next = HashMap::new();
-                if let Ok(rd) = std::fs::read_dir(&dir) {
+                let listing = std::fs::read_dir(&dir).map_err(|e| {
+                    // No folder yet is an empty list; any other failure is said.
+                    if e.kind() != std::io::ErrorKind::NotFound {
+                        tracing::warn!("recordings folder {}: {e}", dir.display());
+                    }
+                });
+                if let Ok(rd) = listing {
                     for e in rd.flatten() {
                         let p = e.path();
                         if !p
@@ -149,6 +162,7 @@ impl SessionBrowser {
                         {
                             continue;
                         }
+                        // A file removed while listing is skipped.
                         let Ok(meta) = e.metadata() else { continue };
                         let modified = meta.modified().map(unix).unwrap_or(0.0);
                         let key = (p.clone(), meta.len(), modified.to_bits());
@@ -161,6 +175,7 @@ impl SessionBrowser {
                     }
                 }
                 out.sort_by(|a, b| b.started_unix_s.total_cmp(&a.started_unix_s));
+                // The browser has gone (app closing) if this fails: nobody waits.
                 let _ = tx.send((out, next));
             });
         match spawned {
@@ -198,12 +213,17 @@ impl SessionBrowser {
 /// export` writes); returns a line for the pilot.
 ///
 /// # Errors
-/// A message naming the file.
-pub fn export_csv(session_path: &Path, out: &Path) -> Result<String, String> {
-    let session =
-        rov_session::open(session_path).map_err(|e| format!("{}: {e}", session_path.display()))?;
-    let csv = rov_session::export_csv(&session).map_err(|e| e.to_string())?;
-    std::fs::write(out, &csv.text).map_err(|e| format!("{}: {e}", out.display()))?;
+/// [`FileError`] naming the file.
+pub fn export_csv(session_path: &Path, out: &Path) -> Result<String, FileError> {
+    let session = rov_session::open(session_path).map_err(|e| FileError::OpenSession {
+        path: session_path.to_path_buf(),
+        source: Box::new(e),
+    })?;
+    let csv = rov_session::export_csv(&session)?;
+    std::fs::write(out, &csv.text).map_err(|source| FileError::Write {
+        path: out.to_path_buf(),
+        source,
+    })?;
     Ok(format!(
         "exported {} rows to {}{}",
         csv.rows,

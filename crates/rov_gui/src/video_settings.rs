@@ -64,7 +64,7 @@ pub(crate) fn video_section(
         &rov_station::runtime::Connection::Sim,
     );
     if let Err(e) = &check {
-        ui.label(RichText::new(e).small().color(theme::AMBER));
+        ui.label(RichText::new(e.to_string()).small().color(theme::AMBER));
     }
     ui.horizontal(|ui| {
         if ui
@@ -95,8 +95,7 @@ pub(crate) fn devices(app: &mut StationApp, ui: &mut Ui) {
     ui.horizontal(|ui| {
         ui.label(format!("Source: {}", app.video_settings.source));
         if ui.button("List capture devices").clicked() || app.capture_devices.is_none() {
-            app.capture_devices =
-                Some(rov_video::list_capture_devices().map_err(|e| e.to_string()));
+            app.capture_devices = Some(rov_video::list_capture_devices());
         }
     });
     if let Some(v) = crate::video::shown_video(app) {

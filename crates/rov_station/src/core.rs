@@ -181,9 +181,15 @@ impl StationCore {
                 // controller's onboard-autopilot targets (CSR 0x0B, mbar) need it.
                 if *health == Health::Connected && self.health != Some(Health::Connected) {
                     let tare = link.config().conventions.surface_pressure_mbar;
-                    let _ = self.controller.command(ModeCommand::SetSurfaceTare {
+                    if let Err(e) = self.controller.command(ModeCommand::SetSurfaceTare {
                         pressure_mbar: tare,
-                    });
+                    }) {
+                        // The autopilot keeps its previous tare; its vehicle depth
+                        // target may then be off by the difference.
+                        tracing::warn!(
+                            "surface pressure {tare} mbar of the link refused by the controller: {e}"
+                        );
+                    }
                 }
                 if *health == Health::Lost && self.health != Some(Health::Lost) {
                     self.controller.failsafe_neutral();

@@ -307,6 +307,7 @@ impl SimApp for App<'_> {
         if self.error.is_some() {
             return;
         }
+        // Arming is refused until the link is up: tried again each tick.
         if self.engaged_us.is_none() && link.arm(now_us).is_ok() {
             if let Err(e) = self.engage(link, now_us) {
                 self.error = Some(e);

@@ -344,8 +344,17 @@ pub enum RuntimeError {
     #[error("session: {0}")]
     Session(#[from] rov_session::SessionError),
     /// A thread could not be started.
-    #[error("cannot start a thread: {0}")]
-    Thread(String),
+    #[error("cannot start a thread ({name}): {source}")]
+    Thread {
+        /// The thread's name.
+        name: String,
+        /// The OS error.
+        #[source]
+        source: std::io::Error,
+    },
+    /// The simulated vehicle's thread ended before handing over its runner.
+    #[error("cannot start a thread: the simulated vehicle did not start")]
+    VehicleDidNotStart,
 }
 
 /// A fresh recording file in `dir`: `session-<unix time>.mcap` (one naming rule for the
@@ -588,7 +597,7 @@ impl StationHandle {
         let _ = self.tx.try_send(RuntimeCommand::Shutdown);
         self.shared.running.store(false, Ordering::Relaxed);
         for t in self.threads.drain(..) {
-            let _ = t.join();
+            join_or_warn(t);
         }
         if let Some(v) = &self.video {
             v.stop();
@@ -647,6 +656,15 @@ pub(crate) fn spawn_raised(
     })
 }
 
+/// Waits for a thread; one that panicked is said (its panic message went to stderr),
+/// not ignored.
+pub(crate) fn join_or_warn<T>(t: JoinHandle<T>) {
+    let name = t.thread().name().unwrap_or("unnamed").to_string();
+    if t.join().is_err() {
+        tracing::warn!("station thread {name} panicked");
+    }
+}
+
 pub(crate) fn spawn_named(
     name: &str,
     f: impl FnOnce() + Send + 'static,
@@ -654,5 +672,8 @@ pub(crate) fn spawn_named(
     std::thread::Builder::new()
         .name(name.into())
         .spawn(f)
-        .map_err(|e| RuntimeError::Thread(e.to_string()))
+        .map_err(|source| RuntimeError::Thread {
+            name: name.to_string(),
+            source,
+        })
 }

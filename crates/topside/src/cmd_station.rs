@@ -235,7 +235,7 @@ pub fn run_station(
     if let Err(e) = &live_server {
         eprintln!("warning: {e}");
     }
-    let fox_error = live_server.as_ref().err().cloned();
+    let fox_error = live_server.as_ref().err().map(ToString::to_string);
     let mut app = StationApp::new(Box::new(backend), None)
         .with_record_on_connect(record_to.is_some() && station.record_on_connect)
         .with_settings(save_to, cfg.alarms, station)

@@ -1,7 +1,7 @@
 //! `--foxglove-ws ADDR:PORT` and `[foxglove]`: starting the live Foxglove server for the
 //! window and for `topside record` (see `rov_station::runtime::foxglove_live`).
 
-use rov_station::runtime::foxglove_live::LiveServer;
+use rov_station::runtime::foxglove_live::{ConfiguredLiveError, LiveServer};
 use rov_station::runtime::settings::FoxgloveSettings;
 
 /// Where to serve: the flag wins; else `[foxglove]` when enabled. The settings are
@@ -16,7 +16,11 @@ pub fn wanted(flag: Option<&str>, settings: &mut FoxgloveSettings) -> Option<Str
 
 /// Starts the server on `addr` and says where on stderr; the error names the address
 /// (and `[foxglove] ws` of `config_label` when the address came from there).
-pub fn start(addr: &str, from_flag: bool, config_label: &str) -> Result<LiveServer, String> {
+pub fn start(
+    addr: &str,
+    from_flag: bool,
+    config_label: &str,
+) -> Result<LiveServer, ConfiguredLiveError> {
     match LiveServer::start(addr) {
         Ok(s) => {
             eprintln!(
@@ -26,7 +30,13 @@ pub fn start(addr: &str, from_flag: bool, config_label: &str) -> Result<LiveServ
             );
             Ok(s)
         }
-        Err(e) if from_flag => Err(format!("--foxglove-ws: {e}")),
-        Err(e) => Err(format!("[foxglove] ws in {config_label}: {e}")),
+        Err(source) => Err(ConfiguredLiveError {
+            origin: if from_flag {
+                "--foxglove-ws".to_string()
+            } else {
+                format!("[foxglove] ws in {config_label}")
+            },
+            source,
+        }),
     }
 }

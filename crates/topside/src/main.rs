@@ -123,8 +123,31 @@ pub fn parse_model_id(s: &str) -> Result<rov_types::ModelId, String> {
     s.parse::<rov_types::ModelId>().map_err(|e| e.to_string())
 }
 
+/// The libraries' warnings (`tracing::warn!`: errors with no place on screen) go to
+/// stderr; `RUST_LOG` chooses more or less (default: warnings).
+fn init_logging() {
+    let filter = match tracing_subscriber::EnvFilter::try_from_default_env() {
+        Ok(f) => f,
+        Err(e) => {
+            if std::env::var_os("RUST_LOG").is_some() {
+                eprintln!("warning: RUST_LOG: {e}; showing warnings");
+            }
+            tracing_subscriber::EnvFilter::new("warn")
+        }
+    };
+    let installed = tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_writer(std::io::stderr)
+        .with_target(false)
+        .try_init();
+    if let Err(e) = installed {
+        eprintln!("warning: no log output: {e}");
+    }
+}
+
 fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
+    init_logging();
     let result = match cli.command {
         Some(Command::Proto(args)) => cmd_proto::run(args),
         Some(Command::Sim(args)) => cmd_sim::run(args),

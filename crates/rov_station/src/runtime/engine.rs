@@ -692,6 +692,7 @@ impl Engine {
         // Sticks: shaped, gain, mapped onto the controller's deadband.
         let shaped = self.shaping.apply(&raw);
         let to_ctl = to_controller(&shaped, self.gain, &self.cfg.control);
+        // Sticks are never refused (they only replace the pilot input).
         let _ = self
             .core
             .command(link, StationCommand::Sticks(to_ctl), now_us);

@@ -22,7 +22,7 @@ use std::time::{Duration, Instant};
 
 use rov_session::WriteSummary;
 
-use crate::runtime::recorder::Recorder;
+use crate::runtime::recorder::{Recorder, RecorderError};
 
 /// How long the station's exit waits for recordings still being saved, in all.
 pub const EXIT_WAIT: Duration = Duration::from_secs(10);
@@ -35,7 +35,7 @@ pub(crate) struct Finished {
     /// Why the video's last units may be missing (the encoder failed or timed out).
     pub video_error: Option<String>,
     /// The writer's summary, or its error.
-    pub result: Result<WriteSummary, String>,
+    pub result: Result<WriteSummary, RecorderError>,
 }
 
 #[derive(Debug)]
@@ -161,10 +161,10 @@ impl Finishers {
 fn joined(f: Finishing) -> Finished {
     match f.state {
         State::Done(d) => d,
-        State::Thread(j) => j.join().unwrap_or_else(|_| Finished {
+        State::Thread(j) => j.join().unwrap_or(Finished {
             path: f.path,
             video_error: None,
-            result: Err("the recording's finisher thread panicked".into()),
+            result: Err(RecorderError::FinisherPanicked),
         }),
     }
 }
@@ -175,7 +175,7 @@ fn unreachable_finished() -> Finished {
     Finished {
         path: PathBuf::new(),
         video_error: None,
-        result: Err("recording handed to two finishers".into()),
+        result: Err(RecorderError::FinishedTwice),
     }
 }
 

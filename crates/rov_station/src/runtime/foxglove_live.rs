@@ -97,6 +97,18 @@ pub enum LiveError {
     Start(String),
 }
 
+/// A live server that did not start, with where its address came from (the
+/// `--foxglove-ws` flag, or `[foxglove] ws` of a named file).
+#[derive(Debug, thiserror::Error)]
+#[error("{origin}: {source}")]
+pub struct ConfiguredLiveError {
+    /// Where the address was given, e.g. `--foxglove-ws`.
+    pub origin: String,
+    /// Why the server did not start.
+    #[source]
+    pub source: LiveError,
+}
+
 /// Parses `ADDR:PORT` (an IP address, `[v6]:port`, or a host name that resolves).
 ///
 /// # Errors
@@ -284,7 +296,7 @@ impl Drop for LiveServer {
         if let Some(f) = self.feeder.take()
             && f.is_finished()
         {
-            let _ = f.join();
+            crate::runtime::join_or_warn(f);
         }
     }
 }

@@ -109,13 +109,15 @@ pub(crate) fn start(cfg: RuntimeConfig, models: ModelSet) -> Result<StationHandl
                             t,
                             inbox,
                         );
+                        // The receiver waits below (after the join): it cannot have hung up.
                         let _ = back.send(runner);
                     }
                 })?;
+                // A helper that panicked sent nothing: the `recv` below says so.
                 let _ = helper.join();
-                let runner = runner_rx.recv().map_err(|_| {
-                    RuntimeError::Thread("the simulated vehicle did not start".into())
-                })?;
+                let runner = runner_rx
+                    .recv()
+                    .map_err(|_| RuntimeError::VehicleDidNotStart)?;
                 truth_tap = Some(tap);
                 (Box::new(station_end), Source::Sim, Some(runner))
             }
@@ -209,8 +211,10 @@ pub(crate) fn start(cfg: RuntimeConfig, models: ModelSet) -> Result<StationHandl
             move || {
                 control_loop(engine, link, &rx_rx, &tx_tx, &cmd_rx, &shared, period_us);
                 shared.running.store(false, Ordering::Relaxed);
-                if let Some(v) = vehicle {
-                    let _ = v.stop();
+                if let Some(v) = vehicle
+                    && let Err(e) = v.stop()
+                {
+                    tracing::warn!("the simulated vehicle stopped with an error: {e}");
                 }
             },
         )?);
@@ -248,6 +252,7 @@ fn rx_loop(mut source: Box<dyn ByteSource>, out: &SyncSender<Rx>, shared: &Share
                 }
             }
             Err(e) => {
+                // The control thread has stopped if this fails (shutdown).
                 let _ = out.send(Rx::Failed(e.to_string()));
                 return;
             }
@@ -466,6 +471,7 @@ fn control_loop(
     link.disarm();
     let now = clock.now_us();
     if let Some(f) = link.poll_transmit(now) {
+        // Best effort on the way out: the vehicle's own timeout stops it anyway.
         let _ = tx.try_send(Chunk::from_slice(f));
     }
     engine.finish(now);

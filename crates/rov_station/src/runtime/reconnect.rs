@@ -164,6 +164,24 @@ fn why_failed(e: &TransportError) -> String {
     }
 }
 
+/// Why a candidate port is not the vehicle; its text is the key the outage summary
+/// counts failures by ("no answer" ×12).
+#[derive(Debug, thiserror::Error)]
+enum ProbeFailure {
+    /// The device path does not exist.
+    #[error("not present")]
+    NotPresent,
+    /// The port cannot be opened, or the probe's write or read failed.
+    #[error("{}", why_failed(.0))]
+    Transport(#[from] TransportError),
+    /// A vehicle answered, with another node ID.
+    #[error("answered as node {0}")]
+    WrongNode(u8),
+    /// Nothing answered within the probe timeout.
+    #[error("no answer")]
+    NoAnswer,
+}
+
 /// The reason text of a failed read or write.
 fn loss_reason(e: &TransportError) -> String {
     match e {
@@ -210,18 +228,17 @@ impl ReconnectingSource {
     }
 
     /// Opens and probes one candidate.
-    fn try_candidate(&self, c: &Candidate) -> Result<SerialTransport, String> {
+    fn try_candidate(&self, c: &Candidate) -> Result<SerialTransport, ProbeFailure> {
         if !Path::new(&c.path).exists() {
-            return Err("not present".into());
+            return Err(ProbeFailure::NotPresent);
         }
-        let mut port = SerialTransport::open(&c.path, PRO4_BAUD).map_err(|e| why_failed(&e))?;
+        let mut port = SerialTransport::open(&c.path, PRO4_BAUD)?;
         let timeout = Duration::from_micros(self.policy.config().probe_timeout_us);
         let frame = probe_frame(&self.shared, self.node);
-        match probe_with(&mut port, &frame, timeout) {
-            Ok(Some(reply)) if reply.node == self.node => Ok(port),
-            Ok(Some(reply)) => Err(format!("answered as node {}", reply.node.0)),
-            Ok(None) => Err("no answer".into()),
-            Err(e) => Err(why_failed(&e)),
+        match probe_with(&mut port, &frame, timeout)? {
+            Some(reply) if reply.node == self.node => Ok(port),
+            Some(reply) => Err(ProbeFailure::WrongNode(reply.node.0)),
+            None => Err(ProbeFailure::NoAnswer),
         }
     }
 
@@ -234,7 +251,7 @@ impl ReconnectingSource {
             let port = match self.try_candidate(c) {
                 Ok(p) => p,
                 Err(why) => {
-                    self.policy.candidate_failed(c, &why);
+                    self.policy.candidate_failed(c, &why.to_string());
                     continue;
                 }
             };
@@ -486,5 +503,29 @@ impl PortMonitor {
             reason: s.map(|s| s.reason.clone()),
             losses: self.losses,
         });
+    }
+}
+
+#[cfg(test)]
+mod probe_failure_tests {
+    use super::*;
+
+    /// The failure's text is the outage summary's key ("/dev/ttyUSB1: no answer" ×12):
+    /// the same words as before the type, a vanished port shortened to its cause.
+    #[test]
+    fn probe_failures_read_as_the_outage_summary_counts_them() {
+        assert_eq!(ProbeFailure::NotPresent.to_string(), "not present");
+        assert_eq!(ProbeFailure::NoAnswer.to_string(), "no answer");
+        assert_eq!(ProbeFailure::WrongNode(3).to_string(), "answered as node 3");
+        let gone = ProbeFailure::from(TransportError::Closed {
+            port: "/dev/pts/9".into(),
+        });
+        assert_eq!(gone.to_string(), "gone (closed)");
+        let io = ProbeFailure::from(TransportError::Io {
+            port: "/dev/pts/9".into(),
+            source: std::io::Error::other("boom"),
+        });
+        assert_eq!(io.to_string(), "/dev/pts/9: I/O error: boom");
+        assert!(std::error::Error::source(&io).is_some());
     }
 }

@@ -228,7 +228,7 @@ pub struct Recorder {
     video_tx: Arc<std::sync::Mutex<Option<SyncSender<RecordItem>>>>,
     counters: Arc<Counters>,
     error: Arc<std::sync::Mutex<Option<String>>>,
-    join: Option<JoinHandle<Result<WriteSummary, String>>>,
+    join: Option<JoinHandle<Result<WriteSummary, RecorderError>>>,
     started_us: u64,
     blocking: bool,
 }
@@ -238,20 +238,23 @@ impl Recorder {
     /// is the station time of the recording's t = 0.
     ///
     /// # Errors
-    /// The writer's error text if the file cannot be created.
+    /// [`RecorderError`]: the folder or the file cannot be created, or the thread
+    /// cannot start.
     pub fn start(
         path: &Path,
         info: &SessionInfo,
         started_us: u64,
         blocking: bool,
-    ) -> Result<Self, String> {
+    ) -> Result<Self, RecorderError> {
         // The folder is made here, where its failure can be said (a read-only disk, a
         // file where the folder should be), not dropped while the file is named.
         if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-            std::fs::create_dir_all(dir)
-                .map_err(|e| format!("cannot create the folder {}: {e}", dir.display()))?;
+            std::fs::create_dir_all(dir).map_err(|source| RecorderError::CreateDir {
+                dir: dir.to_path_buf(),
+                source,
+            })?;
         }
-        let writer = SessionWriter::create(path, info, 0).map_err(|e| e.to_string())?;
+        let writer = SessionWriter::create(path, info, 0)?;
         let (tx, rx) = sync_channel(QUEUE_CAPACITY);
         let counters = Arc::new(Counters::default());
         let error = Arc::new(std::sync::Mutex::new(None));
@@ -260,7 +263,7 @@ impl Recorder {
         let join = std::thread::Builder::new()
             .name("station-recorder".into())
             .spawn(move || run(writer, &rx, &c, &e))
-            .map_err(|e| format!("cannot start the recorder thread: {e}"))?;
+            .map_err(RecorderError::Thread)?;
         Ok(Self {
             path: path.to_path_buf(),
             video_tx: Arc::new(std::sync::Mutex::new(Some(tx.clone()))),
@@ -363,21 +366,19 @@ impl Recorder {
         if !self.counters.failed.load(Ordering::Relaxed) {
             return None;
         }
-        self.error.lock().map_or(None, |e| e.clone())
+        crate::runtime::lock(&self.error).clone()
     }
 
     /// Stops: drains the queue, writes the summary and syncs.
     ///
     /// # Errors
-    /// The writer's error text.
-    pub fn stop(mut self) -> Result<WriteSummary, String> {
+    /// The writer's error ([`RecorderError::Session`]), or the thread panicked.
+    pub fn stop(mut self) -> Result<WriteSummary, RecorderError> {
         self.tx = None;
         self.close_video();
         match self.join.take() {
-            Some(j) => j
-                .join()
-                .unwrap_or_else(|_| Err("recorder thread panicked".into())),
-            None => Err("recorder already stopped".into()),
+            Some(j) => j.join().unwrap_or(Err(RecorderError::Panicked)),
+            None => Err(RecorderError::AlreadyStopped),
         }
     }
 }
@@ -387,7 +388,12 @@ impl Drop for Recorder {
         self.tx = None;
         self.close_video();
         if let Some(j) = self.join.take() {
-            let _ = j.join();
+            // Dropped without `stop` (an error path of the caller, or a test): the file
+            // is finished as far as it can be, and nobody is left to hear how it went;
+            // its reader recovers a file without its summary.
+            if let Ok(Err(e)) | Err(e) = j.join().map_err(|_| RecorderError::Panicked) {
+                tracing::warn!(path = %self.path.display(), "recording dropped unfinished: {e}");
+            }
         }
     }
 }
@@ -413,12 +419,10 @@ fn run(
     rx: &Receiver<RecordItem>,
     counters: &Counters,
     error: &std::sync::Mutex<Option<String>>,
-) -> Result<WriteSummary, String> {
+) -> Result<WriteSummary, RecorderError> {
     let fail = |e: String| {
         counters.failed.store(true, Ordering::Relaxed);
-        if let Ok(mut g) = error.lock() {
-            *g = Some(e);
-        }
+        *crate::runtime::lock(error) = Some(e);
     };
     let write = |w: &mut SessionWriter, item: RecordItem| {
         // Once writing failed the file is not extended (the error is shown).
@@ -458,7 +462,41 @@ fn run(
     for item in order.drain() {
         write(&mut w, item);
     }
-    w.finish().map_err(|e| e.to_string())
+    Ok(w.finish()?)
+}
+
+/// Why a recording could not start or be finished.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum RecorderError {
+    /// The recordings folder does not exist and cannot be made.
+    #[error("cannot create the folder {}: {source}", dir.display())]
+    CreateDir {
+        /// The folder.
+        dir: PathBuf,
+        /// The OS error.
+        #[source]
+        source: std::io::Error,
+    },
+    /// The session writer failed (create, write, summary, sync); names the file.
+    #[error(transparent)]
+    Session(#[from] rov_session::SessionError),
+    /// The recorder thread could not be started.
+    #[error("cannot start the recorder thread: {0}")]
+    Thread(#[source] std::io::Error),
+    /// The recorder thread panicked.
+    #[error("recorder thread panicked")]
+    Panicked,
+    /// `stop` after the thread was already joined.
+    #[error("recorder already stopped")]
+    AlreadyStopped,
+    /// The recording's finisher thread panicked.
+    #[error("the recording's finisher thread panicked")]
+    FinisherPanicked,
+    /// The same recording was handed to two finishers (cannot happen; reported, not a
+    /// panic).
+    #[error("recording handed to two finishers")]
+    FinishedTwice,
 }
 
 #[cfg(test)]
@@ -521,8 +559,23 @@ mod folder_tests {
         let bad = root.path().join("file/sub/session.mcap");
         let e = Recorder::start(&bad, &info(), 0, true).err().unwrap();
         assert!(
-            e.contains("cannot create the folder") && e.contains("file/sub"),
-            "{e}"
+            matches!(&e, RecorderError::CreateDir { dir, .. } if dir == &root.path().join("file/sub")),
+            "{e:?}"
+        );
+        let text = e.to_string();
+        assert!(
+            text.contains("cannot create the folder") && text.contains("file/sub"),
+            "{text}"
+        );
+        assert!(std::error::Error::source(&e).is_some());
+        // A file that cannot be created (a folder is in its place): the writer's
+        // error, naming the file, is kept as it is.
+        let taken = root.path().join("taken.mcap");
+        std::fs::create_dir(&taken).unwrap();
+        let e = Recorder::start(&taken, &info(), 0, true).err().unwrap();
+        assert!(
+            matches!(&e, RecorderError::Session(rov_session::SessionError::Io { path, .. }) if path == &taken),
+            "{e:?}"
         );
     }
 }

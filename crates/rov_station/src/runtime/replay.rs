@@ -90,7 +90,9 @@ impl Overlay {
 /// The model of the overlay: the feed-forward model of the first autopilot record that
 /// names one, loaded by the one loader ([`rov_lab::load_model`]); model3 otherwise, with
 /// a note saying why when the named model does not load.
-fn overlay_model(session: &Session) -> Result<(String, rov_lab::LabModel, Option<String>), String> {
+fn overlay_model(
+    session: &Session,
+) -> Result<(String, rov_lab::LabModel, Option<String>), OverlayError> {
     let named = session
         .read(ReadOptions::topics(&[Topic::Autopilot.name()]))
         .filter_map(|m| match m.decode_any() {
@@ -104,16 +106,18 @@ fn overlay_model(session: &Session) -> Result<(String, rov_lab::LabModel, Option
     if let Some(name) = named {
         let loaded = name
             .parse::<ModelId>()
-            .map_err(|e| e.to_string())
+            .map_err(NamedModelError::Name)
             .and_then(|id| {
                 let text = match &id {
                     ModelId::Base(_) => None,
-                    ModelId::File(p) => Some(
-                        std::fs::read_to_string(p)
-                            .map_err(|e| format!("cannot read {}: {e}", p.display()))?,
-                    ),
+                    ModelId::File(p) => Some(std::fs::read_to_string(p).map_err(|source| {
+                        NamedModelError::Read {
+                            path: p.clone(),
+                            source,
+                        }
+                    })?),
                 };
-                rov_lab::load_model(&id, text.as_deref()).map_err(|e| e.to_string())
+                Ok(rov_lab::load_model(&id, text.as_deref())?)
             });
         match loaded {
             Ok(m) => return Ok((name, m, None)),
@@ -124,30 +128,30 @@ fn overlay_model(session: &Session) -> Result<(String, rov_lab::LabModel, Option
             }
         }
     }
-    let m3 = rov_lab::load_model(&ModelId::Base(BaseModel::Model3), None)
-        .map_err(|e| format!("no model overlay: {e}"))?;
+    let m3 = rov_lab::load_model(&ModelId::Base(BaseModel::Model3), None)?;
     Ok(("model3".to_string(), m3, note))
 }
 
 /// The replay's model overlay of a session (see the module docs) and a note when the
 /// session's own model was replaced by model3, or why there is no overlay.
-pub fn model_overlay(session: &Session) -> Result<(Overlay, Option<String>), String> {
+///
+/// # Errors
+/// [`OverlayError`]: the session is too long, its measurements do not read, or the
+/// model does not load or run.
+pub fn model_overlay(session: &Session) -> Result<(Overlay, Option<String>), OverlayError> {
     if session.duration_s() > OVERLAY_MAX_S {
-        return Err(format!(
-            "no model overlay: the session is longer than {:.0} h",
-            OVERLAY_MAX_S / 3600.0
-        ));
+        return Err(OverlayError::TooLong {
+            max_h: OVERLAY_MAX_S / 3600.0,
+        });
     }
     let (name, model, note) = overlay_model(session)?;
-    let (series, times_ns, _) =
-        rov_session::measurements(session).map_err(|e| format!("no model overlay: {e}"))?;
+    let (series, times_ns, _) = rov_session::measurements(session)?;
     let start_ns = session.start_ns().unwrap_or(0);
     let offset_s = match (series.rows.first(), times_ns.first()) {
         (Some(r), Some(ns)) => ns.saturating_sub(start_ns) as f64 * 1e-9 - r.time_s,
         _ => 0.0,
     };
-    let prediction = rov_lab::engine::predict_series(&model, &series, &name, HORIZON_S)
-        .map_err(|e| format!("no model overlay: {e}"))?;
+    let prediction = rov_lab::engine::predict_series(&model, &series, &name, HORIZON_S)?;
     Ok((
         Overlay {
             model: name,
@@ -156,6 +160,45 @@ pub fn model_overlay(session: &Session) -> Result<(Overlay, Option<String>), Str
         },
         note,
     ))
+}
+
+/// Why the session's own model does not load (the overlay then shows model3, and a
+/// note says why).
+#[derive(Debug, thiserror::Error)]
+enum NamedModelError {
+    /// The recorded name is not a model name.
+    #[error(transparent)]
+    Name(#[from] rov_types::ModelIdError),
+    /// The recorded model file cannot be read here.
+    #[error("cannot read {}: {source}", path.display())]
+    Read {
+        /// The file.
+        path: PathBuf,
+        /// The OS error.
+        #[source]
+        source: std::io::Error,
+    },
+    /// The lab does not load it.
+    #[error(transparent)]
+    Load(#[from] rov_lab::LabError),
+}
+
+/// Why a replay has no model overlay (the replay goes on without).
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum OverlayError {
+    /// The session is longer than the overlay is computed for.
+    #[error("no model overlay: the session is longer than {max_h:.0} h")]
+    TooLong {
+        /// The limit, hours.
+        max_h: f64,
+    },
+    /// The session's measurements do not read.
+    #[error("no model overlay: {0}")]
+    Session(#[from] rov_session::SessionError),
+    /// The model does not load or its prediction fails.
+    #[error("no model overlay: {0}")]
+    Lab(#[from] rov_lab::LabError),
 }
 
 /// The pipeline fed with recorded messages, and the model prediction.
@@ -282,10 +325,12 @@ fn index_session(session: &Session, state: &Mutex<IndexState>, cancel: &AtomicBo
     let mut feed = Feed::new(Source::None, start_ns);
     let (overlay, note) = match model_overlay(session) {
         Ok((o, note)) => (Some(Arc::new(o)), note),
-        Err(e) => (None, Some(e)),
+        Err(e) => (None, Some(e.to_string())),
     };
     feed.overlay.clone_from(&overlay);
-    if let Ok(mut g) = state.lock() {
+    // `lock`: a poisoned index (a panic while publishing) is still read, not dropped.
+    {
+        let mut g = lock(state);
         g.overlay = overlay;
         g.overlay_note = note;
     }
@@ -301,7 +346,8 @@ fn index_session(session: &Session, state: &Mutex<IndexState>, cancel: &AtomicBo
                    evs: &mut Vec<IndexedEvent>,
                    t: f64,
                    done: bool| {
-        if let Ok(mut g) = state.lock() {
+        {
+            let mut g = lock(state);
             for s in batch.drain(..) {
                 g.full.push(&s);
             }
@@ -366,7 +412,7 @@ impl Drop for ReplayEngine {
     fn drop(&mut self) {
         self.cancel.store(true, Ordering::Relaxed);
         if let Some(j) = self.indexer.take() {
-            let _ = j.join();
+            crate::runtime::join_or_warn(j);
         }
     }
 }
@@ -433,8 +479,8 @@ impl ReplayEngine {
             .rev()
             .find(|m| m.known() == Some(Topic::Nav))
             .map(|m| self.feed.t_s(m.t_ns));
-        let mut h = History::default();
-        if let Ok(g) = self.index.lock() {
+        let h = {
+            let g = lock(&self.index);
             let indexed = g.done || g.progress_s >= pos;
             // Tether turns at the last navigation record: from the checkpoint before it.
             if let Some(t_nav) = last_nav
@@ -452,7 +498,7 @@ impl ReplayEngine {
                     self.feed.pipeline.set_turns(turns + extra, now);
                 }
             }
-            h = History::with_capacity(g.full.capacity());
+            let mut h = History::with_capacity(g.full.capacity());
             for i in g.full.range(f64::NEG_INFINITY, pos) {
                 if let Some(s) = g.full.sample(i) {
                     h.push(&s);
@@ -460,7 +506,8 @@ impl ReplayEngine {
             }
             self.stale_history = !indexed;
             self.feed.rebuild_dive(&h, pos, &g.events);
-        }
+            h
+        };
         self.pending.clear();
         self.replace = Some(h);
         self.feed.pipeline.set_time(pos);
@@ -538,16 +585,13 @@ impl ReplayEngine {
                 "the file is damaged ({d}); replaying what is intact"
             ));
         }
-        let index = self
-            .index
-            .lock()
-            .map(|g| {
-                if let Some(n) = &g.overlay_note {
-                    warnings.push(n.clone());
-                }
-                g.events.clone()
-            })
-            .unwrap_or_default();
+        let index = {
+            let g = lock(&self.index);
+            if let Some(n) = &g.overlay_note {
+                warnings.push(n.clone());
+            }
+            g.events.clone()
+        };
         let (position_s, duration_s, playing, speed, messages) = (
             self.player.position_s(),
             self.player.duration_s(),

@@ -268,8 +268,8 @@ pub fn load_all(text: &str, label: &str) -> Result<PilotSettings, ConfigError> {
 /// keeping its other tables and comments; atomically (a temporary file renamed).
 ///
 /// # Errors
-/// A message naming the file.
-pub fn save(path: &Path, alarms: &AlarmConfig, station: &StationSettings) -> Result<(), String> {
+/// [`SaveError`] naming the file or folder and what failed.
+pub fn save(path: &Path, alarms: &AlarmConfig, station: &StationSettings) -> Result<(), SaveError> {
     let fresh = format!(
         "[alarms]\n{}\n[station]\n{}",
         alarms.to_toml(),
@@ -281,8 +281,8 @@ pub fn save(path: &Path, alarms: &AlarmConfig, station: &StationSettings) -> Res
 /// Writes `[foxglove]` into the file at `path` like [`save`].
 ///
 /// # Errors
-/// A message naming the file.
-pub fn save_foxglove(path: &Path, foxglove: &FoxgloveSettings) -> Result<(), String> {
+/// [`SaveError`] naming the file or folder and what failed.
+pub fn save_foxglove(path: &Path, foxglove: &FoxgloveSettings) -> Result<(), SaveError> {
     save_tables(
         path,
         &format!("[foxglove]\n{}", foxglove.to_toml()),
@@ -294,8 +294,8 @@ pub fn save_foxglove(path: &Path, foxglove: &FoxgloveSettings) -> Result<(), Str
 /// at `path` like [`save`].
 ///
 /// # Errors
-/// A message naming the file.
-pub fn save_gamepad(path: &Path, pad: &PadMap, shaping: &StickShaping) -> Result<(), String> {
+/// [`SaveError`] naming the file or folder and what failed.
+pub fn save_gamepad(path: &Path, pad: &PadMap, shaping: &StickShaping) -> Result<(), SaveError> {
     let (head, buttons, shifted) = pad.to_toml();
     let fresh = format!(
         "[gamepad]\n{head}[gamepad.surge]\n{}[gamepad.yaw]\n{}[gamepad.vertical]\n{}[gamepad.buttons]\n{buttons}[gamepad.shift_buttons]\n{shifted}",
@@ -310,29 +310,40 @@ pub fn save_gamepad(path: &Path, pad: &PadMap, shaping: &StickShaping) -> Result
 /// Writes `[video]` into the file at `path` like [`save`].
 ///
 /// # Errors
-/// A message naming the file.
-pub fn save_video(path: &Path, video: &crate::runtime::video::VideoSettings) -> Result<(), String> {
+/// [`SaveError`] naming the file or folder and what failed.
+pub fn save_video(
+    path: &Path,
+    video: &crate::runtime::video::VideoSettings,
+) -> Result<(), SaveError> {
     save_tables(path, &format!("[video]\n{}", video.to_toml()), &["video"])
 }
 
-fn save_tables(path: &Path, fresh: &str, tables: &[&str]) -> Result<(), String> {
+fn save_tables(path: &Path, fresh: &str, tables: &[&str]) -> Result<(), SaveError> {
     // A missing file is created (with its folder: the user's configuration directory may
     // not exist yet); a file that exists but cannot be read is never overwritten.
     let text = match std::fs::read_to_string(path) {
         Ok(t) => t,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
             if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-                std::fs::create_dir_all(dir)
-                    .map_err(|e| format!("{}: cannot create the folder: {e}", dir.display()))?;
+                std::fs::create_dir_all(dir).map_err(|source| SaveError::CreateDir {
+                    dir: dir.to_path_buf(),
+                    source,
+                })?;
             }
             String::new()
         }
-        Err(e) => return Err(format!("{}: cannot read: {e}", path.display())),
+        Err(source) => {
+            return Err(SaveError::Read {
+                path: path.to_path_buf(),
+                source,
+            });
+        }
     };
-    let mut doc: toml_edit::DocumentMut = text
-        .parse()
-        .map_err(|e| format!("{}: not valid TOML: {e}", path.display()))?;
-    let fresh: toml_edit::DocumentMut = fresh.parse().map_err(|e| format!("settings: {e}"))?;
+    let mut doc: toml_edit::DocumentMut = text.parse().map_err(|source| SaveError::NotToml {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let fresh: toml_edit::DocumentMut = fresh.parse().map_err(SaveError::Fresh)?;
     for &table in tables {
         if table == "gamepad" {
             let new = fresh.get(table).cloned().unwrap_or_else(toml_edit::table);
@@ -367,11 +378,74 @@ fn save_tables(path: &Path, fresh: &str, tables: &[&str]) -> Result<(), String> 
         }
     }
     if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+        std::fs::create_dir_all(dir).map_err(|source| SaveError::CreateDir {
+            dir: dir.to_path_buf(),
+            source,
+        })?;
     }
     let tmp = path.with_extension("toml.tmp");
-    std::fs::write(&tmp, doc.to_string()).map_err(|e| format!("{}: {e}", tmp.display()))?;
-    std::fs::rename(&tmp, path).map_err(|e| format!("{}: {e}", path.display()))
+    std::fs::write(&tmp, doc.to_string()).map_err(|source| SaveError::Write {
+        path: tmp.clone(),
+        source,
+    })?;
+    std::fs::rename(&tmp, path).map_err(|source| SaveError::Replace {
+        path: path.to_path_buf(),
+        source,
+    })
+}
+
+/// Why the settings could not be written back to the station configuration.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum SaveError {
+    /// The file's folder does not exist and cannot be made.
+    #[error("{}: cannot create the folder: {source}", dir.display())]
+    CreateDir {
+        /// The folder.
+        dir: PathBuf,
+        /// The OS error.
+        #[source]
+        source: std::io::Error,
+    },
+    /// The file exists but cannot be read (it is then never overwritten).
+    #[error("{}: cannot read: {source}", path.display())]
+    Read {
+        /// The file.
+        path: PathBuf,
+        /// The OS error.
+        #[source]
+        source: std::io::Error,
+    },
+    /// The file is not TOML (it is then never overwritten).
+    #[error("{}: not valid TOML: {source}", path.display())]
+    NotToml {
+        /// The file.
+        path: PathBuf,
+        /// The parser's error (line and column).
+        #[source]
+        source: toml_edit::TomlError,
+    },
+    /// The tables written do not parse: a bug of this module, not of the file.
+    #[error("settings: {0}")]
+    Fresh(#[source] toml_edit::TomlError),
+    /// The temporary file beside the configuration cannot be written.
+    #[error("{}: {source}", path.display())]
+    Write {
+        /// The temporary file.
+        path: PathBuf,
+        /// The OS error.
+        #[source]
+        source: std::io::Error,
+    },
+    /// The temporary file cannot replace the configuration.
+    #[error("{}: {source}", path.display())]
+    Replace {
+        /// The configuration file.
+        path: PathBuf,
+        /// The OS error.
+        #[source]
+        source: std::io::Error,
+    },
 }
 
 #[cfg(test)]
@@ -446,5 +520,60 @@ mod tests {
             .to_string();
         assert!(e.contains("foxglove.enabled"), "{e}");
         std::fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
+    fn a_settings_file_that_cannot_be_written_is_named_with_the_reason() {
+        let root = tempfile::tempdir().unwrap();
+        let (alarms, station) = (AlarmConfig::default(), StationSettings::default());
+        // A file where a folder should be: the file is named, and not created.
+        std::fs::write(root.path().join("file"), b"x").unwrap();
+        let inside = root.path().join("file/sub/station.toml");
+        let e = save(&inside, &alarms, &station).unwrap_err();
+        assert!(
+            matches!(&e, SaveError::Read { path, .. } if path == &inside),
+            "{e:?}"
+        );
+        assert!(e.to_string().contains("cannot read"), "{e}");
+        assert!(std::error::Error::source(&e).is_some());
+        // A folder that cannot be made (Linux: nothing can be created under /proc).
+        #[cfg(target_os = "linux")]
+        {
+            let e = save(
+                Path::new("/proc/topside-no-such/station.toml"),
+                &alarms,
+                &station,
+            )
+            .unwrap_err();
+            assert!(
+                matches!(&e, SaveError::CreateDir { dir, .. } if dir == Path::new("/proc/topside-no-such")),
+                "{e:?}"
+            );
+            assert!(e.to_string().contains("cannot create the folder"), "{e}");
+        }
+        // A file that is not TOML is named and left as it was.
+        let bad = root.path().join("bad.toml");
+        std::fs::write(&bad, "[alarms\n").unwrap();
+        let e = save(&bad, &alarms, &station).unwrap_err();
+        assert!(
+            matches!(&e, SaveError::NotToml { path, .. } if path == &bad),
+            "{e:?}"
+        );
+        assert!(
+            e.to_string()
+                .starts_with(&format!("{}: not valid TOML", bad.display())),
+            "{e}"
+        );
+        assert_eq!(std::fs::read_to_string(&bad).unwrap(), "[alarms\n");
+        // A path that cannot be read (a folder) is never overwritten.
+        let e = save_video(
+            root.path(),
+            &crate::runtime::video::VideoSettings::default(),
+        )
+        .unwrap_err();
+        assert!(
+            matches!(&e, SaveError::Read { path, .. } if path == root.path()),
+            "{e:?}"
+        );
     }
 }

@@ -110,19 +110,40 @@ impl VideoSettings {
 /// with a serial port, else `none`.
 ///
 /// # Errors
-/// The parser's message (naming the text and what is wrong).
-pub fn resolve_source(text: &str, connection: &Connection) -> Result<SourceSpec, String> {
+/// The parser's [`rov_video::VideoError::BadSourceSpec`] (naming the text and what is
+/// wrong).
+pub fn resolve_source(
+    text: &str,
+    connection: &Connection,
+) -> Result<SourceSpec, rov_video::VideoError> {
     let t = text.trim();
     if t.is_empty() || t.eq_ignore_ascii_case("auto") {
         return Ok(match connection {
             Connection::Sim => SourceSpec::Sim,
-            Connection::Serial(_) => rov_video::list_capture_devices()
-                .ok()
-                .and_then(|d| d.into_iter().next())
-                .map_or(SourceSpec::None, |d| d.spec),
+            Connection::Serial(_) => match rov_video::list_capture_devices() {
+                Ok(d) => d.into_iter().next().map_or(SourceSpec::None, |d| d.spec),
+                // `auto` means "a camera if there is one": none found is no error, but
+                // a listing that failed is said (the station then runs without video).
+                Err(e) => {
+                    tracing::warn!("video source auto: cannot list capture devices: {e}");
+                    SourceSpec::None
+                }
+            },
         });
     }
-    SourceSpec::parse(t).map_err(|e| e.to_string())
+    SourceSpec::parse(t)
+}
+
+/// Why a recording has no video (it goes on without).
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum RecordVideoError {
+    /// The encoder did not start (x264 missing, pipeline refused).
+    #[error("recording without video: {0}")]
+    Encoder(#[source] rov_video::VideoError),
+    /// The thread that starts the encoder could not be started.
+    #[error("cannot start the video encoder's thread: {0}")]
+    Thread(#[source] std::io::Error),
 }
 
 /// What the GUI shows about the video (a copy).
@@ -245,13 +266,12 @@ pub fn pose_of_truth(t: &rov_sim::TruthState, tilt_deg: f64) -> CameraPose {
     )
 }
 
-fn sim_camera(settings: &VideoSettings) -> Result<SimCamera, String> {
+fn sim_camera(settings: &VideoSettings) -> Result<SimCamera, rov_video::VideoError> {
     let scene = SimScene {
         seabed_depth_m: settings.sim_seabed_depth_m,
         ..SimScene::default()
     };
     SimCamera::new(scene, CameraModel::default(), settings.sim_stamp_time)
-        .map_err(|e| e.to_string())
 }
 
 impl StationVideo {
@@ -294,7 +314,7 @@ impl StationVideo {
     ) -> Self {
         let spec = match resolve_source(&settings.source, connection) {
             Ok(s) => s,
-            Err(e) => return Self::failed(&settings.source, e),
+            Err(e) => return Self::failed(&settings.source, e.to_string()),
         };
         let label = spec.to_string();
         if spec == SourceSpec::None {
@@ -345,7 +365,7 @@ impl StationVideo {
                     ),
                 );
             }
-            Err(e) => return Self::failed(&settings.source, e),
+            Err(e) => return Self::failed(&settings.source, e.to_string()),
         }
         let camera = match sim_camera(settings) {
             Ok(c) => c,
@@ -383,7 +403,10 @@ impl StationVideo {
                 )
             }
             Ok(None) => Self::off(),
-            Err(e) => Self::failed("session", format!("recorded video: {e}")),
+            Err(e) => Self::failed(
+                "session",
+                format!("recorded video: cannot start the replay video thread: {e}"),
+            ),
         }
     }
 
@@ -516,9 +539,10 @@ impl StationVideo {
     /// do without video.
     ///
     /// # Errors
-    /// The encoder's message (x264 missing, pipeline refused) on virtual time; live, the
-    /// same ends in [`VideoStatus::record_error`]. The recording goes on without video.
-    pub fn begin_recording(&self, tap: VideoTap) -> Result<bool, String> {
+    /// [`RecordVideoError`]: the encoder did not start (x264 missing, pipeline refused)
+    /// on virtual time; live, the same ends in [`VideoStatus::record_error`]. The
+    /// recording goes on without video.
+    pub fn begin_recording(&self, tap: VideoTap) -> Result<bool, RecordVideoError> {
         if !matches!(self.kind, Kind::Live(_) | Kind::Virtual(_)) || self.slot.is_none() {
             return Ok(false);
         }
@@ -528,19 +552,22 @@ impl StationVideo {
         record.delivered.store(0, Ordering::Relaxed);
         record.dropped.store(0, Ordering::Relaxed);
         *lock(&record.error) = None;
-        let start = move || -> Result<(), String> {
+        let start = move || -> Result<(), RecordVideoError> {
             let delivered = Arc::clone(&record.delivered);
             let enc = Encoder::start(EncoderConfig::default(), move |au| {
                 tap.send(au);
                 delivered.fetch_add(1, Ordering::Release);
             })
-            .map_err(|e| format!("recording without video: {e}"))?;
+            .map_err(RecordVideoError::Encoder)?;
             let mut slot = lock(&record.encoder);
             // A recording that ended meanwhile drops the new encoder unused.
             if record.generation.load(Ordering::Acquire) == generation
                 && let Some(old) = slot.replace(enc)
+                && let Err(e) = old.finish(FINISH_TIMEOUT)
             {
-                let _ = old.finish(FINISH_TIMEOUT);
+                // An encoder left from an earlier start of this recording: its units
+                // went to the same file; say if its end was lost.
+                tracing::warn!("video recording: the replaced encoder did not finish: {e}");
             }
             Ok(())
         };
@@ -552,10 +579,10 @@ impl StationVideo {
                 .name("station-video-encoder-start".into())
                 .spawn(move || {
                     if let Err(e) = start() {
-                        *lock(&record.error) = Some(e);
+                        *lock(&record.error) = Some(e.to_string());
                     }
                 })
-                .map_err(|e| format!("cannot start the video encoder's thread: {e}"))?;
+                .map_err(RecordVideoError::Thread)?;
         }
         Ok(true)
     }

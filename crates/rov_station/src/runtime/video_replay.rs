@@ -141,8 +141,8 @@ impl ReplayVideo {
     /// Starts the worker; `None` if the session has no video.
     ///
     /// # Errors
-    /// A message if the thread cannot start.
-    pub fn start(session: Session) -> Result<Option<Self>, String> {
+    /// The OS error if the worker thread cannot start.
+    pub fn start(session: Session) -> std::io::Result<Option<Self>> {
         let Some(mut video) = SessionVideo::new(session) else {
             return Ok(None);
         };
@@ -156,8 +156,7 @@ impl ReplayVideo {
         let w = Arc::clone(&inner);
         let thread = std::thread::Builder::new()
             .name("station-replay-video".into())
-            .spawn(move || worker(&w, &mut video))
-            .map_err(|e| format!("cannot start the replay video thread: {e}"))?;
+            .spawn(move || worker(&w, &mut video))?;
         Ok(Some(Self {
             inner,
             thread: Some(thread),
@@ -203,7 +202,7 @@ impl Drop for ReplayVideo {
         lock(&self.inner.request).stop = true;
         self.inner.wake.notify_one();
         if let Some(t) = self.thread.take() {
-            let _ = t.join();
+            crate::runtime::join_or_warn(t);
         }
     }
 }

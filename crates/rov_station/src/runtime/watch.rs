@@ -161,7 +161,7 @@ impl Drop for StationWatch {
             // Dropping the sender ends the thread's loop.
             self.runner = Runner::Failed;
             if let Some(j) = j {
-                let _ = j.join();
+                crate::runtime::join_or_warn(j);
             }
         }
     }
@@ -193,14 +193,17 @@ pub fn nav_row(t_s: f64, thrust_pct: [f64; 3], t: &rov_driver::Telemetry) -> Mea
 /// dive, written by the simulator (not by the watch's own model).
 ///
 /// # Errors
-/// A fault spec that does not parse, or a simulator error, in words.
-pub fn simulated_rows(n: usize, faults: &[&str]) -> Result<Vec<MeasurementRow>, String> {
+/// [`SimulatedRowsError`]: a fault spec that does not parse, or a simulator error.
+pub fn simulated_rows(
+    n: usize,
+    faults: &[&str],
+) -> Result<Vec<MeasurementRow>, SimulatedRowsError> {
     use rov_dynamics::ThrustPct;
-    let cfg = rov_sim::SimConfig::default_model3().map_err(|e| e.to_string())?;
-    let mut sim = rov_sim::Simulator::new(cfg, 3).map_err(|e| e.to_string())?;
+    let cfg = rov_sim::SimConfig::default_model3()?;
+    let mut sim = rov_sim::Simulator::new(cfg, 3)?;
     let specs = faults
         .iter()
-        .map(|f| rov_sim::FaultSpec::parse(f).map_err(|e| e.to_string()))
+        .map(|f| rov_sim::FaultSpec::parse(f))
         .collect::<Result<Vec<_>, _>>()?;
     sim.set_faults(specs);
     let mut out = Vec::with_capacity(n);
@@ -212,8 +215,8 @@ pub fn simulated_rows(n: usize, faults: &[&str]) -> Result<Vec<MeasurementRow>, 
             starboard: 30.0 - 15.0 * phase,
             vertical: 10.0 * (t / 11.0).cos(),
         };
-        sim.set_command(cmd).map_err(|e| e.to_string())?;
-        sim.advance_to(t).map_err(|e| e.to_string())?;
+        sim.set_command(cmd)?;
+        sim.advance_to(t)?;
         let s = sim.sensors();
         let mut optional = [None; 8];
         optional[0] = Some(s.gyro_body_radps.z.to_degrees());
@@ -232,6 +235,18 @@ pub fn simulated_rows(n: usize, faults: &[&str]) -> Result<Vec<MeasurementRow>, 
         });
     }
     Ok(out)
+}
+
+/// Why [`simulated_rows`] could not fly its dive.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum SimulatedRowsError {
+    /// The simulator refused its configuration or a step.
+    #[error(transparent)]
+    Sim(#[from] rov_sim::SimError),
+    /// A `--fault` spec does not parse.
+    #[error(transparent)]
+    Fault(#[from] rov_sim::fault::FaultSpecError),
 }
 
 #[cfg(test)]

@@ -13,7 +13,8 @@ use egui_kittest::Harness;
 use egui_kittest::kittest::{NodeT, Queryable};
 use rov_gui::{AutodetectResult, Backend, StationApp};
 use rov_station::runtime::{
-    Connection, RuntimeConfig, StationHandle, StationView, VirtualReplay, VirtualStation,
+    Connection, RuntimeConfig, RuntimeError, StationHandle, StationView, VirtualReplay,
+    VirtualStation,
 };
 
 /// Station frames per GUI frame: 50 ms of virtual time.
@@ -41,19 +42,23 @@ pub fn config() -> RuntimeConfig {
 }
 
 impl Backend for TestBackend {
-    fn connect(&mut self, c: &Connection) -> Result<StationHandle, String> {
+    fn connect(&mut self, c: &Connection) -> Result<StationHandle, RuntimeError> {
         match c {
             Connection::Sim => {
-                let (st, h) = VirtualStation::new(config()).map_err(|e| e.to_string())?;
+                let (st, h) = VirtualStation::new(config())?;
                 self.shared.stations.lock().unwrap().push(st);
                 Ok(h)
             }
-            Connection::Serial(p) => Err(format!("{p}: no serial ports in this test")),
+            Connection::Serial(p) => Err(RuntimeError::Transport(
+                rov_driver::TransportError::Unsupported(format!(
+                    "{p}: no serial ports in this test"
+                )),
+            )),
         }
     }
 
-    fn open_replay(&mut self, path: &Path) -> Result<StationHandle, String> {
-        let (r, h) = VirtualReplay::open(path).map_err(|e| e.to_string())?;
+    fn open_replay(&mut self, path: &Path) -> Result<StationHandle, RuntimeError> {
+        let (r, h) = VirtualReplay::open(path)?;
         self.shared.replays.lock().unwrap().push(r);
         Ok(h)
     }

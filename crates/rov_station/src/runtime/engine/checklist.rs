@@ -55,10 +55,19 @@ impl Engine {
                 match (self.last_pressure_mbar, depth) {
                     (Some(p), Some(d)) if d.abs() < ZERO_DEPTH_WINDOW_M => {
                         let was = link.config().conventions.surface_pressure_mbar;
-                        link.set_surface_pressure_mbar(p);
+                        // The controller first: a pressure it refuses changes neither
+                        // (the link's depth and the autopilot's target must agree).
                         let cmd =
                             StationCommand::Mode(ModeCommand::SetSurfaceTare { pressure_mbar: p });
-                        let _ = self.core.command(link, cmd, now_us);
+                        if let Err(e) = self.core.command(link, cmd, now_us) {
+                            let text = format!(
+                                "depth not zeroed: surface pressure {p:.0} mbar refused ({e}); still {was:.0} mbar"
+                            );
+                            self.event(now_us, "depth_zero", Severity::Warning, text.clone());
+                            self.set_item(Item::DepthZero, ItemStatus::Fail, text);
+                            return;
+                        }
+                        link.set_surface_pressure_mbar(p);
                         let text = format!(
                             "depth zeroed: surface pressure {p:.0} mbar (was {was:.0}; depth read {d:+.2} m)"
                         );
@@ -93,6 +102,7 @@ impl Engine {
                 for axis in [Axis::Depth, Axis::Heading] {
                     if self.core.holding(axis) {
                         let m = StationCommand::Mode(ModeCommand::Disengage(axis));
+                        // Disengaging is never refused (no arming or range check).
                         let _ = self.core.command(link, m, now_us);
                     }
                 }

@@ -38,12 +38,8 @@ impl Engine {
                     .map(|v| v.begin_recording(r.video_tap().with_live(self.live.clone())));
                 self.recorder = Some(r);
                 if let Some(Err(e)) = video {
-                    self.event(
-                        now_us,
-                        "recording",
-                        Severity::Warning,
-                        format!("recording without video: {e}"),
-                    );
+                    // The error says "recording without video" itself.
+                    self.event(now_us, "recording", Severity::Warning, e.to_string());
                 }
                 let v = &mut self.pipeline.view.recording;
                 v.path = Some(path.to_path_buf());
@@ -56,7 +52,7 @@ impl Engine {
                 );
             }
             Err(e) => {
-                self.pipeline.view.recording.error = Some(e.clone());
+                self.pipeline.view.recording.error = Some(e.to_string());
                 self.event(
                     now_us,
                     "recording",
