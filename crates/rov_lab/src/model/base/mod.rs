@@ -634,3 +634,80 @@ pub(super) fn with_body_effects(
         *tau_thrust
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::LabModel;
+
+    fn vehicle(file: &str) -> LabModel {
+        let path = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+            .join("../../config/vehicles")
+            .join(file);
+        let text = std::fs::read_to_string(path).unwrap();
+        LabModel::from_vehicle_text(&text, file).unwrap()
+    }
+
+    #[test]
+    fn each_pro4_base_is_of_its_kind_and_has_its_kinds_facts() {
+        for kind in BaseKind::ALL {
+            let m = LabModel::default_base(kind).unwrap();
+            assert_eq!(m.kind(), kind);
+            assert_eq!(m.base_name(), kind.name());
+            assert_eq!(m.has_attitude(), kind.has_attitude());
+            assert_eq!(m.calibration_params(), kind.calibration_params());
+            for e in EffectId::ALL {
+                assert_eq!(m.contains(e), kind.contains(e), "{kind:?} {e:?}");
+                assert_eq!(
+                    m.not_applicable(e),
+                    kind.not_applicable(e),
+                    "{kind:?} {e:?}"
+                );
+            }
+            assert_eq!(m.n_thrusters(), 3);
+            assert_eq!(m.command_names(), ["port", "starboard", "vertical"]);
+        }
+    }
+
+    #[test]
+    fn a_vehicle_files_structure_decides_what_its_base_has() {
+        let four = vehicle("videoray_pro4_lateral.toml");
+        let six = vehicle("bluerov2_heavy.toml");
+        for m in [&four, &six] {
+            assert_eq!(m.kind(), BaseKind::Vehicle);
+            assert_eq!(Some(m.base_name()), m.vehicle().map(|v| v.name.as_str()));
+            assert_eq!(m.command_resolution_pct(), None);
+        }
+        // Locked pitch and roll: no attitude effects, a trim for the depth kinematics.
+        assert!(!four.has_attitude() && !four.uses_quaternion());
+        assert!(four.not_applicable(EffectId::AttitudeBias).is_some());
+        assert!(
+            BaseKind::Vehicle
+                .not_applicable(EffectId::AttitudeBias)
+                .is_none()
+        );
+        assert!(!four.contains(EffectId::PitchDepthCoupling));
+        assert!(four.applicable(Param::TrimDeg) && !four.applicable(Param::CgZ));
+        assert!(six.has_attitude() && six.uses_quaternion());
+        assert!(six.contains(EffectId::PitchDepthCoupling));
+        assert!(!six.applicable(Param::TrimDeg) && six.applicable(Param::CgZ));
+        assert_eq!(six.n_thrusters(), 8);
+    }
+
+    #[test]
+    fn model1s_net_weight_is_held_by_its_base_and_reaches_the_plant() {
+        use rov_dynamics::models::VehicleModel;
+        let mut m = LabModel::default_base(BaseKind::Model1).unwrap();
+        let load0 = m.plant().unwrap().heave.static_load;
+        assert_eq!(m.get(Param::NetWeight), Some(0.0));
+        m.set_many(&[Param::NetWeight], &[5.0]).unwrap();
+        assert_eq!(m.get(Param::NetWeight), Some(5.0));
+        assert_eq!(m.plant().unwrap().heave.static_load, load0 + 5.0);
+        // model2 keeps W − B in its own parameters: no lab-carried force.
+        let mut m2 = LabModel::default_base(BaseKind::Model2).unwrap();
+        m2.set_many(&[Param::NetWeight], &[5.0]).unwrap();
+        assert_eq!(m2.get(Param::NetWeight), Some(5.0));
+        assert_eq!(m2.base.model().lab_heave_force_n(), 0.0);
+        assert_eq!(m.base.model().lab_heave_force_n(), 5.0);
+    }
+}
