@@ -6,6 +6,7 @@ use rov_dynamics::kinematics::Attitude;
 use rov_dynamics::models::{Channel, ModelState};
 use rov_dynamics::process::CurrentSample;
 
+use super::base::{BaseModel, on_base};
 use super::{LabModel, PerThruster};
 use crate::params::{Axis, Param};
 
@@ -184,7 +185,7 @@ impl LabModel {
         if !self.has_body_fx {
             return tau;
         }
-        let heave_n = self.base.model().lab_heave_force_n();
+        let heave_n = on_base!(&self.base, b => b.lab_heave_force_n());
         if heave_n != 0.0 {
             tau[2] += heave_n;
         }

@@ -54,7 +54,7 @@ use crate::LabError;
 use crate::catalog::EffectId;
 use crate::params::{Axis, Param, Thr};
 use crate::terms::Term;
-use base::{Base, ThrustScales};
+use base::{Base, BaseModel, ThrustScales, on_base};
 
 pub use base::BaseKind;
 pub use effects::{EffectValues, N_GROUPS, TETHER_ATTACH_X_M};
@@ -445,7 +445,7 @@ impl LabModel {
             quad: self.thrust_quad[g],
             reverse_ratio: self.fx.reverse_ratio[g],
         };
-        self.base.model().thrust_n(i, pct, scales)
+        on_base!(&self.base, b => b.thrust_n(i, pct, scales))
     }
 
     /// Per-thruster forces for thruster commands in percent (after the power limit), N.
@@ -490,7 +490,7 @@ impl LabModel {
     /// held; a test checks it for every base).
     #[inline]
     pub fn thrust_tau(&self, f: &PerThruster, state: &ModelState) -> Vector6 {
-        self.base.model().thrust_tau(self, f, state)
+        on_base!(&self.base, b => b.thrust_tau(self, f, state))
     }
 
     /// (η̇, ν̇) for a given τ of the thrusters and terms: the hot path of the lab's
@@ -503,9 +503,7 @@ impl LabModel {
         tau_thrust: &Vector6,
         current: &CurrentSample,
     ) -> (Vector6, Vector6) {
-        self.base
-            .model()
-            .eta_nu_derivative(self, eta, nu, tau_thrust, current)
+        on_base!(&self.base, b => b.eta_nu_derivative(self, eta, nu, tau_thrust, current))
     }
 
     /// State derivative for a τ of the thrusters and terms (without extra states).
@@ -516,9 +514,7 @@ impl LabModel {
         tau_thrust: &Vector6,
         current: &CurrentSample,
     ) -> ModelState {
-        self.base
-            .model()
-            .body_derivative(self, state, tau_thrust, current)
+        on_base!(&self.base, b => b.body_derivative(self, state, tau_thrust, current))
     }
 
     /// The quaternion-state derivative of a 6-DOF vehicle-file base for a τ of the
@@ -532,9 +528,7 @@ impl LabModel {
         current: &CurrentSample,
         yaw_hint_rad: f64,
     ) -> Option<QuatState> {
-        self.base
-            .model()
-            .quat_derivative(self, x, tau_thrust, current, yaw_hint_rad)
+        on_base!(&self.base, b => b.quat_derivative(self, x, tau_thrust, current, yaw_hint_rad))
     }
 
     /// Whether the lab's simulator integrates this model's attitude with quaternions (a

@@ -407,6 +407,20 @@ pub(super) enum Base {
     Vehicle(Box<vehicle::VehicleBase>),
 }
 
+/// Calls a [`BaseModel`] method on a [`Base`] with static dispatch (each arm its own
+/// monomorphised call, so the simulator's hot path inlines as it did before the trait).
+macro_rules! on_base {
+    ($base:expr, $b:ident => $call:expr) => {
+        match $base {
+            $crate::model::base::Base::M1($b) => $call,
+            $crate::model::base::Base::M2($b) => $call,
+            $crate::model::base::Base::M3($b) => $call,
+            $crate::model::base::Base::Vehicle($b) => $call,
+        }
+    };
+}
+pub(super) use on_base;
+
 impl Base {
     /// A base of a kind from its parameter-file text (`label` names it in errors).
     pub fn from_text(kind: BaseKind, text: &str, label: &str) -> Result<Self, LabError> {
