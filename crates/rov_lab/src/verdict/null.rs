@@ -527,11 +527,10 @@ pub const PRO4_COMMAND_RESOLUTION_PCT: f64 = 1.0;
 pub fn input_spread(model: &LabModel, val: &[Run], pred: &[Prediction]) -> [f64; N_CHANNELS] {
     let mut var = [0.0; N_CHANNELS];
     let mut cnt = [0usize; N_CHANNELS];
-    let pro4 = model.kind() != crate::model::BaseKind::Vehicle;
+    let resolution = model.command_resolution_pct();
     for (run, p) in val.iter().zip(pred) {
         let mut variants: Vec<Run> = Vec::new();
-        if pro4 {
-            let q = PRO4_COMMAND_RESOLUTION_PCT;
+        if let Some(q) = resolution {
             let mut rounded = run.clone();
             let mut changed = false;
             for c in rounded.inputs.iter_mut() {
