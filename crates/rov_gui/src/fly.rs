@@ -325,6 +325,9 @@ fn tilt_indicator(ui: &Ui, rect: Rect, tilt_deg: f64) {
     let text = format!("TILT {tilt_deg:+.0}°");
     let font = FontId::monospace(12.0);
     let at = pos2(rect.max.x, rect.min.y + 2.0);
+    // The value is wider than the scale's strip ("TILT -20°"): drawn over the HUD, not
+    // clipped to the strip (clipped, its first letter was cut off).
+    let p = ui.painter();
     p.text(
         at + vec2(1.0, 1.0),
         Align2::RIGHT_TOP,
