@@ -365,6 +365,105 @@ fn the_pure_crates_read_no_clock_and_do_no_io() {
     );
 }
 
+/// What the station's pilot core (`rov_station::pilot`, sans-IO) must not contain outside
+/// its tests, beyond [`FORBIDDEN`]: threads, locks, channels, atomics.
+const NOT_IN_THE_PILOT_CORE: [&str; 7] = [
+    "std::thread",
+    "Mutex",
+    "RwLock",
+    "mpsc",
+    "Atomic",
+    "Condvar",
+    "std::time::Instant",
+];
+
+/// The names of `crate::runtime` the pilot core may use: the plain data types of the
+/// runtime's root module (commands, configuration, error) and the live tap it hands back
+/// untouched. Anything inside the runtime's modules (threads, devices) is out.
+const PILOT_MAY_NAME_FROM_RUNTIME: [&str; 8] = [
+    "RuntimeConfig",
+    "RuntimeCommand",
+    "RuntimeError",
+    "CameraCommand",
+    "ChecklistCommand",
+    "GainCommand",
+    "ReplayCommand",
+    "foxglove_live::LiveTap",
+];
+
+/// The uses of `crate::runtime` in `text` that the pilot core may not make: every path
+/// after `crate::runtime::` (one name, or each name of a `{...}` group, which may span
+/// lines) must be in [`PILOT_MAY_NAME_FROM_RUNTIME`].
+fn runtime_names_outside_the_allowed(text: &str) -> Vec<String> {
+    let mut wrong = Vec::new();
+    let mut rest = text;
+    while let Some(i) = rest.find("crate::runtime::") {
+        rest = &rest[i + "crate::runtime::".len()..];
+        let names: Vec<&str> = if let Some(group) = rest.strip_prefix('{') {
+            let end = group.find('}').unwrap_or(group.len());
+            group[..end].split(',').map(str::trim).collect()
+        } else {
+            let end = rest
+                .find(|c: char| !(c.is_alphanumeric() || c == '_' || c == ':'))
+                .unwrap_or(rest.len());
+            vec![rest[..end].trim_end_matches(':')]
+        };
+        for n in names.into_iter().filter(|n| !n.is_empty()) {
+            if !PILOT_MAY_NAME_FROM_RUNTIME.contains(&n) {
+                wrong.push(n.to_string());
+            }
+        }
+    }
+    wrong
+}
+
+/// The pilot core is a sans-IO state machine (ARCHITECTURE.md, issue 24): no clock, file,
+/// socket, thread, lock or channel in `crates/rov_station/src/pilot{.rs,/}` outside its
+/// tests, and nothing from the runtime's modules.
+#[test]
+fn the_pilot_core_does_no_io_and_takes_no_lock() {
+    let src = root().join("crates/rov_station/src");
+    let mut files = vec![src.join("pilot.rs")];
+    rust_files(&src.join("pilot"), &mut files);
+    assert!(files.len() > 5, "the pilot core's sources: {files:?}");
+    let mut wrong = Vec::new();
+    for f in files {
+        if f.file_name().is_some_and(|n| n == "tests.rs") {
+            continue;
+        }
+        let text = std::fs::read_to_string(&f).unwrap_or_default();
+        let kept: Vec<(usize, &str)> = non_test_lines(&text);
+        for (no, line) in &kept {
+            for pat in FORBIDDEN.iter().chain(NOT_IN_THE_PILOT_CORE.iter()) {
+                if line.contains(pat) {
+                    wrong.push(format!("{}:{no}: `{pat}`", f.display()));
+                }
+            }
+        }
+        let joined: String = kept.iter().map(|(_, l)| format!("{l}\n")).collect();
+        for n in runtime_names_outside_the_allowed(&joined) {
+            wrong.push(format!("{}: crate::runtime::{n}", f.display()));
+        }
+    }
+    assert!(
+        wrong.is_empty(),
+        "the pilot core must stay sans-IO:\n  {}",
+        wrong.join("\n  ")
+    );
+}
+
+#[test]
+fn the_runtime_name_check_reads_groups_and_paths() {
+    let ok = "use crate::runtime::{\n    RuntimeCommand, RuntimeConfig,\n};\nx: Option<crate::runtime::foxglove_live::LiveTap>";
+    assert!(runtime_names_outside_the_allowed(ok).is_empty());
+    let bad =
+        "use crate::runtime::{Shared, lock};\nlet r = crate::runtime::recorder::Recorder::start();";
+    assert_eq!(
+        runtime_names_outside_the_allowed(bad),
+        vec!["Shared", "lock", "recorder::Recorder::start"]
+    );
+}
+
 #[test]
 fn the_scanner_skips_test_modules_and_sees_the_rest() {
     let src = "fn a() { let t = std::time::Instant::now(); }\n#[cfg(test)]\nmod tests {\n    fn b() {\n        std::fs::read(\"x\");\n    }\n}\nfn c() {}\n";

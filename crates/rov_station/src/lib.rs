@@ -6,6 +6,9 @@
 //! * [`metrics`]: step-response metrics on the true state.
 //! * [`sim_link`]: the virtual-time harness joining the driver's `Link` and the simulated
 //!   Pro 4 (`rov_vehicle::Vehicle`): used by `hold`, `VirtualStation` and the scenarios.
+//! * [`pilot`]: the pilot core, a sans-IO state machine (events and time in; records,
+//!   requests and the view out): alarms, checklist, dive log, sticks and arming,
+//!   prediction, the view the GUI shows.
 //! * [`runtime`]: the real-time runtime (threads, deadlines, watchdog, gamepad, recording,
 //!   replay) behind a [`StationHandle`] for the GUI.
 #![cfg_attr(
@@ -38,6 +41,7 @@ pub(crate) use clone_fields;
 pub mod core;
 pub mod hold;
 pub mod metrics;
+pub mod pilot;
 pub mod runtime;
 pub mod sim_link;
 

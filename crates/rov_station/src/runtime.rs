@@ -3,8 +3,10 @@
 //!
 //! # Threads ([`Runtime::start`])
 //!
-//! * `station-control`: owns the [`Link`](rov_driver::Link) and the [`StationCore`].
-//!   It waits for bytes or the next deadline (the control tick, at 50 Hz by default,
+//! * `station-control`: owns the [`Link`](rov_driver::Link) and the `host`: the pilot
+//!   core's [`Engine`](crate::pilot::Engine) (sans-IO: the [`StationCore`], alarms,
+//!   checklist, records) with the recorder, finishers, camera, live tap and model watch
+//!   around it. It waits for bytes or the next deadline (the control tick, at 50 Hz by default,
 //!   scheduled as `t₀ + k·P`, so sleeping never accumulates drift, or the link's next
 //!   timeout), feeds the link, runs the tick, applies pilot commands, and publishes a
 //!   [`StationView`] and one history sample per tick.
@@ -30,7 +32,7 @@
 //!
 //! # Deterministic variants
 //!
-//! [`VirtualStation`] runs the same engine on virtual time through
+//! [`VirtualStation`] runs the same host and engine on virtual time through
 //! `rov_station::SimLink`, stepped by the caller (GUI tests, benchmarks);
 //! [`Runtime::replay`] / [`VirtualReplay`] play a recorded session through the same view
 //! pipeline.
@@ -47,28 +49,21 @@ use rov_driver::{LinkConfig, MonoClock};
 
 use crate::core::{Snapshot, StationCommand};
 
-pub mod alarms;
-pub mod dive;
-mod engine;
+pub use crate::pilot::{alarms, dive, history, pad, predict, shaping, timing, view};
 pub mod finisher;
 pub mod foxglove_live;
 #[cfg(feature = "gamepad")]
 pub mod gamepad;
-pub mod history;
+mod host;
 mod live;
-pub mod pad;
-pub mod predict;
 pub mod priority;
 pub mod reconnect;
 pub mod recorder;
 pub mod replay;
 pub mod settings;
-pub mod shaping;
 mod sim;
-pub mod timing;
 pub mod video;
 pub mod video_replay;
-pub mod view;
 pub mod watch;
 
 #[cfg(test)]
@@ -84,6 +79,8 @@ pub use rov_sim::FaultSpec;
 pub use rov_vehicle::FaultConfig as SimFaults;
 pub use shaping::{AxisShaping, GAIN_STEPS_PCT, Gain, StickShaping};
 pub use sim::VirtualStation;
+#[cfg(test)]
+pub(crate) use sim::sim_vehicle;
 pub use timing::TickStats;
 pub use view::{
     AxisModeView, AxisView, CameraView, HealthView, IndexedEvent, LinkView, PadStatus, PilotView,
@@ -377,45 +374,49 @@ pub fn recording_path_in(dir: &Path) -> PathBuf {
 /// Command queue capacity.
 pub const COMMAND_CAPACITY: usize = 256;
 
-/// Gamepad state shared with the gamepad thread: the raw pad only (the control tick
-/// maps it, see [`pad`]).
-#[derive(Debug, Clone, Default)]
-pub(crate) struct PadSlot {
-    /// Raw axes and buttons (zero unless `live`).
-    pub state: pad::PadState,
-    /// Raw axes and buttons as reported, also before the centre rule (setup page).
-    pub raw: pad::PadState,
-    /// Last poll of the gamepad thread, µs of the runtime clock.
-    pub heartbeat_us: u64,
-    /// Sticks usable (connected, passed through centre since connecting).
-    pub live: bool,
-    /// Status for the GUI.
-    pub status: view::PadStatus,
-}
+pub use crate::pilot::pad::PadSlot;
 
-/// State shared between the runtime threads and the handle.
+/// State shared between the runtime threads and the handle. Each field names the
+/// thread that writes it (one writer per field; everyone else reads). "control" is
+/// `station-control` (the [`host`]'s engine in live mode; the caller's thread for a
+/// [`VirtualStation`]), "replay" the replay thread, "GUI" any [`StationHandle`] holder.
 #[derive(Debug)]
 pub(crate) struct Shared {
+    /// Written by: control (or replay), once per tick (`Host::publish`, try-lock: never
+    /// waits for the GUI). Read by: GUI.
     pub view: Mutex<StationView>,
+    /// Written by: control (or replay), samples appended per tick. Read (drained) by: GUI.
     pub feed: Mutex<history::HistoryFeed>,
+    /// Written by: control (tick start and end times). Read by: GUI (statistics).
     pub ticks: Mutex<timing::TickTimer>,
+    /// Written by: `station-gamepad` (each poll). Read by: control (before each tick).
     pub pad: Mutex<PadSlot>,
+    /// Written by: control (end of each tick). Read by: `station-watchdog`.
     pub last_tick_us: AtomicU64,
+    /// Written by: `station-watchdog`. Read by: control (the control-stall alarm), GUI.
     pub watchdog_trips: AtomicU64,
+    /// Written by: `station-watchdog`. Read by: control, GUI.
     pub watchdog_frames: AtomicU64,
+    /// Written by: `station-watchdog`. Read by: control, GUI.
     pub watchdog_max_gap_us: AtomicU64,
     /// Lights and camera of the last control frame, kept by the watchdog's neutral
-    /// frames (see `live::pack_kept`).
+    /// frames (see `live::pack_kept`). Written by: control. Read by: `station-watchdog`,
+    /// the simulated camera's pose source.
     pub watchdog_kept: AtomicU64,
+    /// Written by: GUI (a command that found the queue full). Read by: control (view).
     pub commands_dropped: AtomicU64,
+    /// Written by: GUI (shutdown), control and replay (as they end). Read by: every
+    /// thread's loop.
     pub running: AtomicBool,
+    /// Not written (a copy of the monotonic clock's origin).
     pub clock: MonoClock,
-    /// What each real-time thread got (thread name, grant).
+    /// What each real-time thread got (thread name, grant). Written by: each real-time
+    /// thread once, as it starts. Read by: control (view), GUI.
     pub priorities: Mutex<Vec<(String, priority::Granted)>>,
-    /// Heap allocations of the control thread's wake-ups (tests only).
+    /// Heap allocations of the control thread's wake-ups (tests only). Written by: control.
     #[cfg(test)]
     pub test_allocations: AtomicU64,
-    /// Control thread wake-ups counted (tests only).
+    /// Control thread wake-ups counted (tests only). Written by: control.
     #[cfg(test)]
     pub test_wakeups: AtomicU64,
 }

@@ -10,7 +10,7 @@
 //!   value, cannot drive the vehicle).
 //!
 //! This thread only reports the raw axes and buttons ([`PadState`]); the control tick
-//! maps them with the pilot's [`PadMap`](crate::runtime::pad::PadMap) (axes, buttons,
+//! maps them with the pilot's [`PadMap`](crate::pilot::pad::PadMap) (axes, buttons,
 //! shift layer), so a virtual pad takes the same path.
 
 use std::sync::atomic::Ordering;
@@ -18,8 +18,8 @@ use std::time::Duration;
 
 use gilrs::{Axis as GAxis, Button, EventType, Gilrs};
 
-use crate::runtime::pad::{PadButton, PadState};
-use crate::runtime::view::PadStatus;
+use crate::pilot::pad::{PadButton, PadState};
+use crate::pilot::view::PadStatus;
 use crate::runtime::{Shared, lock};
 
 /// Sticks inside this radius count as centred for the reconnect rule.

@@ -1,4 +1,4 @@
-//! The wall-clock driver of the live engine: control, rx, tx and watchdog threads (see
+//! The wall-clock driver of the live host: control, rx, tx and watchdog threads (see
 //! the parent module docs).
 
 use std::sync::Arc;
@@ -14,9 +14,9 @@ use rov_driver::{
 use rov_vehicle::runner::TruthTap;
 use rov_vehicle::{RunnerConfig, VehicleRunner};
 
-use crate::runtime::engine::{Engine, Followup};
+use crate::pilot::view::Source;
+use crate::runtime::host::{Followup, Host};
 use crate::runtime::priority::{RT_CONTROL, RT_LINK, RT_WATCHDOG};
-use crate::runtime::view::Source;
 use crate::runtime::{
     Connection, RuntimeCommand, RuntimeConfig, RuntimeError, Shared, StationHandle,
     command_channel, lock, spawn_named, spawn_raised,
@@ -75,7 +75,7 @@ pub(crate) fn start(cfg: RuntimeConfig, models: ModelSet) -> Result<StationHandl
     let shared = Arc::new(Shared::new(period_us, clock));
     let (cmd_tx, cmd_rx) = command_channel();
     let mut link_cfg = cfg.link;
-    // Raw frames are recorded only while a recording runs (the engine switches them).
+    // Raw frames are recorded only while a recording runs (the host switches them).
     link_cfg.record_frames = false;
     let link = Link::new(link_cfg)?;
     let node = link.config().node;
@@ -127,7 +127,7 @@ pub(crate) fn start(cfg: RuntimeConfig, models: ModelSet) -> Result<StationHandl
             }
         };
     let (source_half, sink_half) = transport.split()?;
-    let mut engine = Engine::new(cfg.clone(), models, Arc::clone(&shared), source)?;
+    let mut host = Host::new(cfg.clone(), models, Arc::clone(&shared), source)?;
     // The camera on threads of its own (see `video`); the sim camera follows the truth
     // and the lights and tilt of the last control frame sent.
     let video = Arc::new(crate::runtime::video::StationVideo::start_live(
@@ -141,12 +141,12 @@ pub(crate) fn start(cfg: RuntimeConfig, models: ModelSet) -> Result<StationHandl
             .clone()
             .map(|tap| sim_pose(tap, Arc::clone(&shared))),
     ));
-    engine.attach_video(Arc::clone(&video));
+    host.attach_video(Arc::clone(&video));
     if let Some(inbox) = fault_inbox {
-        engine.attach_fault_inbox(inbox);
+        host.attach_fault_inbox(inbox);
     }
     if let Some(tap) = truth_tap {
-        engine.attach_truth_tap(tap);
+        host.attach_truth_tap(tap);
     }
 
     let (rx_tx, rx_rx) = sync_channel::<Rx>(RX_CAPACITY);
@@ -158,7 +158,7 @@ pub(crate) fn start(cfg: RuntimeConfig, models: ModelSet) -> Result<StationHandl
         (source_half, sink_half),
         &rx_tx,
         &shared,
-        &mut engine,
+        &mut host,
     )?;
     let mut threads = Vec::new();
     {
@@ -209,7 +209,7 @@ pub(crate) fn start(cfg: RuntimeConfig, models: ModelSet) -> Result<StationHandl
             RT_CONTROL,
             &shared.clone(),
             move || {
-                control_loop(engine, link, &rx_rx, &tx_tx, &cmd_rx, &shared, period_us);
+                control_loop(host, link, &rx_rx, &tx_tx, &cmd_rx, &shared, period_us);
                 shared.running.store(false, Ordering::Relaxed);
                 if let Some(v) = vehicle
                     && let Err(e) = v.stop()
@@ -353,7 +353,7 @@ fn watchdog_loop(shared: &Shared, tx: &SyncSender<Chunk>, node: NodeId, period_u
 }
 
 fn control_loop(
-    mut engine: Engine,
+    mut host: Host,
     mut link: Link,
     rx: &Receiver<Rx>,
     tx: &SyncSender<Chunk>,
@@ -376,7 +376,7 @@ fn control_loop(
                 match rx.recv_timeout(Duration::from_micros(due - now)) {
                     Ok(Rx::Bytes(b, t)) => link.handle_input(b.bytes(), t),
                     Ok(Rx::Failed(e)) => transport_error = Some(e),
-                    Ok(Rx::Port(ev)) => engine.on_port_event(ev, &mut link, clock.now_us()),
+                    Ok(Rx::Port(ev)) => host.on_port_event(ev, &mut link, clock.now_us()),
                     Err(RecvTimeoutError::Timeout) => {}
                     Err(RecvTimeoutError::Disconnected) => {
                         transport_error.get_or_insert_with(|| "transport closed".into());
@@ -387,26 +387,24 @@ fn control_loop(
                 match rx.try_recv() {
                     Ok(Rx::Bytes(b, t)) => link.handle_input(b.bytes(), t),
                     Ok(Rx::Failed(e)) => transport_error = Some(e),
-                    Ok(Rx::Port(ev)) => engine.on_port_event(ev, &mut link, clock.now_us()),
+                    Ok(Rx::Port(ev)) => host.on_port_event(ev, &mut link, clock.now_us()),
                     Err(TryRecvError::Empty | TryRecvError::Disconnected) => break,
                 }
             }
             if let Some(e) = transport_error.take() {
                 let now = clock.now_us();
-                engine.pipeline.push_event(format!(
-                    "{:7.1} s  ALARM: transport failed: {e}",
-                    now as f64 * 1e-6
-                ));
+                let line = format!("{:7.1} s  ALARM: transport failed: {e}", now as f64 * 1e-6);
+                host.note(&mut link, line, now);
             }
             let now = clock.now_us();
             link.handle_timeout(now);
-            pump(&mut engine, &mut link, tx, now);
+            pump(&mut host, &mut link, tx, now);
 
             // Commands.
             let mut stop = false;
             loop {
                 match cmds.try_recv() {
-                    Ok(c) => match engine.apply(&mut link, c, clock.now_us()) {
+                    Ok(c) => match host.apply(&mut link, c, clock.now_us()) {
                         Followup::None => {}
                         Followup::Shutdown => stop = true,
                         Followup::Stall(d) => std::thread::sleep(d),
@@ -431,10 +429,10 @@ fn control_loop(
                 }
             }
             if now >= next_tick {
-                engine.tick(&mut link, now);
-                engine.publish_port(now);
-                pump(&mut engine, &mut link, tx, now);
-                engine.record_tapped_truth(now);
+                host.tick(&mut link, now);
+                host.publish_port(now);
+                pump(&mut host, &mut link, tx, now);
+                host.record_tapped_truth(&mut link, now);
                 let stats = {
                     let mut t = lock(&shared.ticks);
                     t.record(next_tick, now);
@@ -459,7 +457,7 @@ fn control_loop(
                         .store(pack_kept(&sent), Ordering::Relaxed);
                 }
                 shared.last_tick_us.store(clock.now_us(), Ordering::Relaxed);
-                engine.publish(Some(stats));
+                host.publish(Some(stats));
             }
             false
         });
@@ -474,8 +472,8 @@ fn control_loop(
         // Best effort on the way out: the vehicle's own timeout stops it anyway.
         let _ = tx.try_send(Chunk::from_slice(f));
     }
-    engine.finish(now);
-    engine.publish(None);
+    host.finish(&mut link, now);
+    host.publish(None);
 }
 
 /// Runs one wake-up of the control thread. In this crate's tests it also counts the
@@ -497,13 +495,13 @@ fn measured(_shared: &Shared, f: impl FnOnce() -> bool) -> bool {
     f()
 }
 
-/// Hands due frames to the tx thread and feeds the link's events to the engine.
-fn pump(engine: &mut Engine, link: &mut Link, tx: &SyncSender<Chunk>, now: u64) {
+/// Hands due frames to the tx thread and feeds the link's events to the host.
+fn pump(host: &mut Host, link: &mut Link, tx: &SyncSender<Chunk>, now: u64) {
     while let Some(frame) = link.poll_transmit(now) {
         // The tx queue holds 64 frames; a full queue means the port is stuck.
         let _ = tx.try_send(Chunk::from_slice(frame));
     }
     while let Some(ev) = link.poll_event() {
-        engine.on_event(link, &ev, now);
+        host.on_event(link, &ev, now);
     }
 }

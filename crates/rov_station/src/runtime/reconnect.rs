@@ -39,11 +39,11 @@ use rov_driver::{
     TransportError, by_id_name, probe_with,
 };
 use rov_session::Severity;
-use serde::Serialize;
 
-use crate::runtime::engine::Engine;
+use crate::pilot::Engine;
+use crate::pilot::view::{Source, StationView};
+use crate::runtime::host::Host;
 use crate::runtime::live::{Rx, watchdog_block};
-use crate::runtime::view::{Source, StationView};
 use crate::runtime::{Connection, RuntimeConfig, RuntimeError, Shared, lock};
 
 /// Lists the serial ports to scan while reconnecting.
@@ -88,28 +88,7 @@ impl Default for ReconnectSettings {
     }
 }
 
-/// The serial port as the GUI sees it.
-#[derive(Debug, Clone, PartialEq, Default, Serialize)]
-pub struct PortView {
-    /// Where the port is (or was last) open.
-    pub path: String,
-    /// Its stable by-id name, if it has one.
-    pub by_id: Option<String>,
-    /// "open", or "reconnecting (attempt n, next in t s)".
-    pub state: String,
-    /// Whether the port is lost and being looked for.
-    pub reconnecting: bool,
-    /// The attempt running or next (0 while open).
-    pub attempt: u32,
-    /// Seconds to the next attempt (`None` while open or while an attempt runs).
-    pub next_attempt_in_s: Option<f64>,
-    /// Seconds since the port was lost (`None` while open).
-    pub lost_for_s: Option<f64>,
-    /// Why it was lost (`None` while open).
-    pub reason: Option<String>,
-    /// Times the port has been lost since the start.
-    pub losses: u64,
-}
+pub use crate::pilot::view::PortView;
 
 /// From the port thread to the control thread.
 #[derive(Debug)]
@@ -368,7 +347,7 @@ pub(crate) fn wrap(
     (source, sink): SplitHalves,
     events: &SyncSender<Rx>,
     shared: &Arc<Shared>,
-    engine: &mut Engine,
+    engine: &mut Host,
 ) -> Result<SplitHalves, RuntimeError> {
     let Connection::Serial(path) = &cfg.connection else {
         return Ok((source, sink));
@@ -408,19 +387,21 @@ pub(crate) struct PortMonitor {
     losses: u64,
 }
 
-impl Engine {
+impl Host {
     /// A port event from the serial port's reader (nothing happens without a port).
     pub(crate) fn on_port_event(&mut self, ev: PortEvent, link: &mut Link, now_us: u64) {
         if let Some(mut port) = self.port.take() {
-            port.on_event(ev, self, link, now_us);
+            port.on_event(ev, self.engine_mut(), link, now_us);
             self.port = Some(port);
         }
+        self.flush(link, now_us);
     }
 
     /// Writes the port's state into the view (call after each tick).
     pub(crate) fn publish_port(&mut self, now_us: u64) {
-        if let Some(port) = &self.port {
-            port.publish(&mut self.pipeline.view, now_us);
+        if let Some(port) = self.port.take() {
+            port.publish(self.engine_mut().view_mut(), now_us);
+            self.port = Some(port);
         }
     }
 }
@@ -460,7 +441,7 @@ impl PortMonitor {
                 self.status = None;
                 path.clone_into(&mut self.path);
                 self.by_id = by_id;
-                engine.pipeline.view.source = Source::Serial(path.clone());
+                engine.view_mut().source = Source::Serial(path.clone());
                 let via = match (&self.by_id, source) {
                     (Some(b), CandidateSource::ById) => format!("by-id {b}"),
                     _ => source.as_str().to_string(),

@@ -21,57 +21,9 @@ use std::sync::mpsc::{Receiver, RecvTimeoutError, SyncSender, TrySendError, sync
 use std::thread::JoinHandle;
 use std::time::Duration;
 
-use rov_session::{
-    AutopilotRecord, Direction, EventRecord, LinkRecord, NavRecord, ObserverRecord, PilotRecord,
-    SessionInfo, SessionWriter, StatusRecord, ThrustRecord, TruthRecord, WriteSummary,
-};
+use rov_session::{SessionInfo, SessionWriter, WriteSummary};
 
-/// One item for the recorder; times are ns since the recording started.
-#[derive(Debug, Clone)]
-pub enum RecordItem {
-    /// A raw frame.
-    Raw(Direction, u64, Vec<u8>),
-    /// `/telemetry/nav`.
-    Nav(u64, NavRecord),
-    /// `/telemetry/status`.
-    Status(u64, StatusRecord),
-    /// `/command/thrust`.
-    Thrust(u64, ThrustRecord),
-    /// `/pilot/input`.
-    Pilot(u64, PilotRecord),
-    /// `/autopilot/state`.
-    Autopilot(u64, AutopilotRecord),
-    /// `/observer/state`.
-    Observer(u64, ObserverRecord),
-    /// `/link/stats`.
-    Link(u64, LinkRecord),
-    /// `/events`.
-    Event(u64, EventRecord),
-    /// `/truth/state` (simulated vehicle only).
-    Truth(u64, TruthRecord),
-    /// `/camera/video`: one H.264 access unit (Annex B) and whether it is a key frame.
-    Video(u64, bool, Vec<u8>),
-}
-
-impl RecordItem {
-    /// Its recording time, ns.
-    #[must_use]
-    pub const fn t_ns(&self) -> u64 {
-        match self {
-            Self::Raw(_, t, _)
-            | Self::Nav(t, _)
-            | Self::Status(t, _)
-            | Self::Thrust(t, _)
-            | Self::Pilot(t, _)
-            | Self::Autopilot(t, _)
-            | Self::Observer(t, _)
-            | Self::Link(t, _)
-            | Self::Event(t, _)
-            | Self::Truth(t, _)
-            | Self::Video(t, _, _) => *t,
-        }
-    }
-}
+pub use crate::pilot::record::RecordItem;
 
 /// How long the recorder holds items to write them in time order, ns (above the video
 /// encoder's latency on a loaded laptop).
@@ -502,6 +454,7 @@ pub enum RecorderError {
 #[cfg(test)]
 mod order_tests {
     use super::*;
+    use rov_session::Direction;
 
     fn ev(t: u64) -> RecordItem {
         RecordItem::Raw(Direction::Rx, t, vec![0])

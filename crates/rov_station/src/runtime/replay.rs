@@ -36,10 +36,10 @@ use rov_lab::engine::SeriesPrediction;
 use rov_session::{Decoded, Message, Playback, ReadOptions, Session, Topic};
 use rov_types::model_id::{BaseModel, ModelId};
 
-use crate::runtime::dive::DiveLog;
-use crate::runtime::history::{History, HistorySample};
-pub use crate::runtime::predict::HORIZON_S;
-use crate::runtime::view::{IndexedEvent, Pipeline, ReplayView, Source};
+use crate::pilot::dive::DiveLog;
+use crate::pilot::history::{History, HistorySample};
+pub use crate::pilot::predict::HORIZON_S;
+use crate::pilot::view::{IndexedEvent, Pipeline, ReplayView, Source};
 use crate::runtime::{
     ReplayCommand, RuntimeCommand, RuntimeError, Shared, StationHandle, command_channel, lock,
     spawn_named, try_lock,

@@ -10,9 +10,9 @@ use std::path::{Path, PathBuf};
 use rov_types::params::{ConfigError, ParamFile};
 use serde::Serialize;
 
-use crate::runtime::alarms::AlarmConfig;
-use crate::runtime::pad::PadMap;
-use crate::runtime::shaping::StickShaping;
+use crate::pilot::alarms::AlarmConfig;
+use crate::pilot::pad::PadMap;
+use crate::pilot::shaping::StickShaping;
 
 /// Everything the pilot sets in the station configuration.
 #[derive(Debug, Clone, PartialEq, Default)]

@@ -12,14 +12,14 @@ use rov_control::ModelSet;
 use rov_driver::{Link, LinkEvent, MonoClock};
 use rov_vehicle::{Vehicle, VehicleConfig};
 
-use crate::runtime::engine::{Engine, Followup};
-use crate::runtime::view::Source;
+use crate::pilot::view::Source;
+use crate::runtime::host::{Followup, Host};
 use crate::runtime::{
     RuntimeCommand, RuntimeConfig, RuntimeError, Shared, StationHandle, command_channel, lock,
 };
 
 struct App {
-    engine: Engine,
+    host: Host,
     video: Arc<crate::runtime::video::StationVideo>,
     cmds: Receiver<RuntimeCommand>,
     shared: Arc<Shared>,
@@ -28,14 +28,14 @@ struct App {
 
 impl SimApp for App {
     fn on_event(&mut self, link: &mut Link, _vehicle: &Vehicle, event: LinkEvent, now_us: u64) {
-        self.engine.on_event(link, &event, now_us);
+        self.host.on_event(link, &event, now_us);
     }
 
     fn on_tick(&mut self, link: &mut Link, vehicle: &mut Vehicle, now_us: u64) {
         loop {
             match self.cmds.try_recv() {
                 Ok(c) => {
-                    if self.engine.apply(link, c, now_us) == Followup::Shutdown {
+                    if self.host.apply(link, c, now_us) == Followup::Shutdown {
                         self.stopped = true;
                     }
                 }
@@ -46,8 +46,8 @@ impl SimApp for App {
                 }
             }
         }
-        self.engine.tick(link, now_us);
-        self.engine.record_truth(vehicle.sim().truth(), now_us);
+        self.host.tick(link, now_us);
+        self.host.record_truth(link, vehicle.sim().truth(), now_us);
         let (lights_pct, tilt_deg) = link.last_control_sent().map_or((0.0, 0.0), |(_, c)| {
             (f64::from(c.lights_pct), f64::from(c.tilt_deg))
         });
@@ -59,7 +59,7 @@ impl SimApp for App {
             t.stats()
         };
         self.shared.last_tick_us.store(now_us, Ordering::Relaxed);
-        self.engine.publish(Some(stats));
+        self.host.publish(Some(stats));
     }
 }
 
@@ -135,13 +135,13 @@ impl VirtualStation {
         let link = Link::new(link_cfg)?;
         let vehicle = sim_vehicle(&cfg)?;
         let video = Arc::new(crate::runtime::video::StationVideo::virtual_sim(&cfg.video));
-        let mut engine = Engine::new(cfg, models, Arc::clone(&shared), Source::Sim)?;
-        engine.attach_video(Arc::clone(&video));
-        engine.watch_inline();
+        let mut host = Host::new(cfg, models, Arc::clone(&shared), Source::Sim)?;
+        host.attach_video(Arc::clone(&video));
+        host.watch_inline();
         let inbox = rov_vehicle::runner::FaultInbox::default();
-        engine.attach_fault_inbox(Arc::clone(&inbox));
+        host.attach_fault_inbox(Arc::clone(&inbox));
         let app = App {
-            engine,
+            host,
             video: Arc::clone(&video),
             cmds: rx,
             shared: Arc::clone(&shared),
@@ -205,7 +205,7 @@ impl VirtualStation {
     /// Finishes a recording in progress.
     pub fn finish(&mut self) {
         let now = self.sim.now_us();
-        self.app.engine.finish(now);
-        self.app.engine.publish(None);
+        self.app.host.finish(&mut self.sim.link, now);
+        self.app.host.publish(None);
     }
 }

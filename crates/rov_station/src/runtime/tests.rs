@@ -491,7 +491,7 @@ fn the_replayed_dive_log_follows_the_recorded_depth() {
 /// depth here" passes; under water (1 m, where it used to start) the zero is refused.
 #[test]
 fn zero_depth_passes_at_the_surface_and_is_refused_a_metre_down() {
-    use crate::runtime::dive::{Item, ItemStatus};
+    use crate::pilot::dive::{Item, ItemStatus};
     let _serial = serial();
     let (mut st, h) = virtual_armed();
     let d0 = h.view().snapshot.depth_m.unwrap();
@@ -628,7 +628,7 @@ fn a_live_recording_with_video_is_in_time_order() {
 /// function (record), the mapped axis drives surge.
 #[test]
 fn a_virtual_pad_is_mapped_like_a_real_one() {
-    use crate::runtime::pad::{PadButton, PadState};
+    use crate::pilot::pad::{PadButton, PadState};
     let _serial = serial();
     let dir = std::env::temp_dir().join(format!("rov_station_pad_{}", std::process::id()));
     let cfg = RuntimeConfig {

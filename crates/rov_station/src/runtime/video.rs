@@ -254,7 +254,7 @@ pub type PoseSource = Box<dyn Fn() -> Option<(CameraPose, f64)> + Send + 'static
 /// The camera pose of the simulated vehicle's truth with a camera tilt, degrees.
 #[must_use]
 pub fn pose_of_truth(t: &rov_sim::TruthState, tilt_deg: f64) -> CameraPose {
-    let r = crate::runtime::engine::truth_record(t);
+    let r = crate::pilot::truth_record(t);
     CameraPose::from_degrees(
         r.north_m,
         r.east_m,

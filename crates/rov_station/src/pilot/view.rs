@@ -18,9 +18,9 @@ use rov_types::conventions::PhysicsThrust;
 use serde::Serialize;
 
 use crate::core::Snapshot;
-use crate::runtime::alarms::AlarmState;
-use crate::runtime::history::HistorySample;
-use crate::runtime::timing::TickStats;
+use crate::pilot::alarms::AlarmState;
+use crate::pilot::history::HistorySample;
+use crate::pilot::timing::TickStats;
 
 /// Where the data comes from.
 #[derive(Debug, PartialEq, Eq, Default, Serialize)]
@@ -80,7 +80,7 @@ pub struct LinkView {
     /// Overall colour.
     pub quality: Quality,
     /// The serial port and its re-connection state (`None` for the simulator).
-    pub port: Option<crate::runtime::reconnect::PortView>,
+    pub port: Option<PortView>,
 }
 
 /// Vehicle health.
@@ -188,9 +188,9 @@ pub struct PilotView {
     /// Buttons held, by name.
     pub buttons: Vec<String>,
     /// The pad's raw axes and buttons (setup page), before the centre rule.
-    pub pad_raw: crate::runtime::pad::PadState,
+    pub pad_raw: crate::pilot::pad::PadState,
     /// The gamepad map in force.
-    pub pad_map: crate::runtime::pad::PadMap,
+    pub pad_map: crate::pilot::pad::PadMap,
     /// The shift button is held.
     pub shift: bool,
 }
@@ -206,8 +206,8 @@ impl Default for PilotView {
             pad: PadStatus::default(),
             input: String::new(),
             buttons: Vec::new(),
-            pad_raw: crate::runtime::pad::PadState::default(),
-            pad_map: crate::runtime::pad::PadMap::default(),
+            pad_raw: crate::pilot::pad::PadState::default(),
+            pad_map: crate::pilot::pad::PadMap::default(),
             shift: false,
         }
     }
@@ -385,11 +385,11 @@ pub struct StationView {
     /// The priority the control thread got ("real-time FIFO 60", "nice -10", ...).
     pub control_priority: String,
     /// The alarm limits in force.
-    pub alarm_limits: crate::runtime::alarms::AlarmConfig,
+    pub alarm_limits: crate::pilot::alarms::AlarmConfig,
     /// The dive log (timer, deepest point, notes, markers).
-    pub dive: crate::runtime::dive::DiveView,
+    pub dive: crate::pilot::dive::DiveView,
     /// The pre-dive checklist.
-    pub checklist: crate::runtime::dive::ChecklistView,
+    pub checklist: crate::pilot::dive::ChecklistView,
 }
 
 /// Which instruments have no current data. An instrument is stale when the frame it
@@ -561,7 +561,7 @@ impl Pipeline {
         };
         if let Some(g) = finite(r.gain_pct) {
             p.gain_pct = g;
-            p.gain_index = crate::runtime::shaping::GAIN_STEPS_PCT
+            p.gain_index = crate::pilot::shaping::GAIN_STEPS_PCT
                 .iter()
                 .position(|x| (x - g).abs() < 0.5)
                 .unwrap_or(p.gain_index);
@@ -952,4 +952,27 @@ impl Clone for Source {
             (me, _) => *me = other.clone(),
         }
     }
+}
+
+/// The serial port as the GUI sees it.
+#[derive(Debug, Clone, PartialEq, Default, Serialize)]
+pub struct PortView {
+    /// Where the port is (or was last) open.
+    pub path: String,
+    /// Its stable by-id name, if it has one.
+    pub by_id: Option<String>,
+    /// "open", or "reconnecting (attempt n, next in t s)".
+    pub state: String,
+    /// Whether the port is lost and being looked for.
+    pub reconnecting: bool,
+    /// The attempt running or next (0 while open).
+    pub attempt: u32,
+    /// Seconds to the next attempt (`None` while open or while an attempt runs).
+    pub next_attempt_in_s: Option<f64>,
+    /// Seconds since the port was lost (`None` while open).
+    pub lost_for_s: Option<f64>,
+    /// Why it was lost (`None` while open).
+    pub reason: Option<String>,
+    /// Times the port has been lost since the start.
+    pub losses: u64,
 }

@@ -8,11 +8,12 @@ impl Engine {
     /// the pilot's map. Buttons act on their press (the shift layer while the shift
     /// button is held); the arm button is timed like the GUI's.
     pub(super) fn pad_input(&mut self, link: &mut Link, now_us: u64) -> Option<PilotInput> {
+        // The slot is taken out for the borrow checker and put back below (no copy).
+        let slot = std::mem::take(&mut self.pad_slot);
         let (state, raw, live) = {
-            let slot = lock(&self.shared.pad);
             let fresh = now_us.saturating_sub(slot.heartbeat_us) <= PAD_STALE_US;
             match self.virtual_pad {
-                Some((st, t)) if now_us.saturating_sub(t) <= self.cfg.keyboard_timeout_us => {
+                Some(st) if self.timers.running(Timer::VirtualPad, now_us) => {
                     if !self.virtual_centred && virtual_centred(&st) {
                         self.virtual_centred = true;
                     }
@@ -30,6 +31,7 @@ impl Engine {
                 _ => {
                     if self.virtual_pad.take().is_some() {
                         self.virtual_centred = false;
+                        self.timers.clear(Timer::VirtualPad);
                     }
                     let status = if fresh || matches!(slot.status, PadStatus::Off) {
                         &slot.status
@@ -52,6 +54,7 @@ impl Engine {
                 }
             }
         };
+        self.pad_slot = slot;
         self.pipeline.view.pilot.pad_raw = raw;
         let map = &self.cfg.pad_map;
         let shift = map.shift.is_some_and(|b| state.held(b));
@@ -107,19 +110,18 @@ impl Engine {
             }
             Action::TiltCentre => RuntimeCommand::Camera(CameraCommand::Tilt(0.0)),
             Action::Record => {
-                if self.recorder.is_some() {
-                    RuntimeCommand::StopRecording
+                if self.recording() {
+                    self.outputs.push_back(Output::StopRecording);
                 } else if let Some(dir) = self.cfg.recordings_dir.clone() {
-                    RuntimeCommand::StartRecording(crate::runtime::recording_path_in(&dir))
-                } else {
-                    return;
+                    self.outputs.push_back(Output::StartRecordingIn(dir));
                 }
+                return;
             }
             Action::Marker => RuntimeCommand::Marker,
             Action::AckAlarms => RuntimeCommand::AckAlarm(None),
             Action::ResetTurns => RuntimeCommand::ResetTurns,
         };
-        let _ = self.apply(link, cmd, now_us);
+        self.apply(link, cmd, now_us);
     }
 
     pub(super) fn pilot_input(
@@ -130,8 +132,7 @@ impl Engine {
         let pad = self.pad_input(link, now_us);
         let kb = self
             .keyboard
-            .filter(|(_, t)| now_us.saturating_sub(*t) <= self.cfg.keyboard_timeout_us)
-            .map(|(p, _)| p);
+            .filter(|_| self.timers.running(Timer::KeyboardSticks, now_us));
         let pick = |a: f64, b: f64| if b.abs() > a.abs() { b } else { a };
         match (pad, kb) {
             (Some(p), Some(k)) => (

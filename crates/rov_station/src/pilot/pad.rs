@@ -432,6 +432,22 @@ crate::clone_fields!(PadMap {
     shifted
 });
 
+/// Gamepad state shared with the gamepad thread: the raw pad only (the control tick
+/// maps it, see [`pad`]).
+#[derive(Debug, Clone, Default)]
+pub struct PadSlot {
+    /// Raw axes and buttons (zero unless `live`).
+    pub state: PadState,
+    /// Raw axes and buttons as reported, also before the centre rule (setup page).
+    pub raw: PadState,
+    /// Last poll of the gamepad thread, µs of the runtime clock.
+    pub heartbeat_us: u64,
+    /// Sticks usable (connected, passed through centre since connecting).
+    pub live: bool,
+    /// Status for the GUI.
+    pub status: crate::pilot::view::PadStatus,
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
