@@ -318,6 +318,37 @@ pub enum RuntimeCommand {
     Shutdown,
 }
 
+impl RuntimeCommand {
+    /// The command's name (its variant), for the control thread's slow-command warning.
+    #[must_use]
+    pub fn name(&self) -> &'static str {
+        match self {
+            Self::Station(_) => "Station",
+            Self::ArmButton(_) => "ArmButton",
+            Self::ToggleHold(_) => "ToggleHold",
+            Self::Gain(_) => "Gain",
+            Self::Camera(_) => "Camera",
+            Self::Shaping(_) => "Shaping",
+            Self::AckAlarm(_) => "AckAlarm",
+            Self::AlarmLimits(_) => "AlarmLimits",
+            Self::Note(_) => "Note",
+            Self::Marker => "Marker",
+            Self::Checklist(_) => "Checklist",
+            Self::ResetTurns => "ResetTurns",
+            Self::StartRecording(_) => "StartRecording",
+            Self::StopRecording => "StopRecording",
+            Self::FoxgloveLive(_) => "FoxgloveLive",
+            Self::Replay(_) => "Replay",
+            Self::PadMap(_) => "PadMap",
+            Self::PadInput(_) => "PadInput",
+            Self::AutopilotModel { .. } => "AutopilotModel",
+            Self::InjectStall(_) => "InjectStall",
+            Self::InjectFault(_) => "InjectFault",
+            Self::Shutdown => "Shutdown",
+        }
+    }
+}
+
 /// Why the runtime could not start.
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
@@ -672,7 +703,10 @@ pub(crate) fn spawn_named(
 ) -> Result<JoinHandle<()>, RuntimeError> {
     std::thread::Builder::new()
         .name(name.into())
-        .spawn(f)
+        .spawn(move || {
+            priority::normal_current();
+            f();
+        })
         .map_err(|source| RuntimeError::Thread {
             name: name.to_string(),
             source,

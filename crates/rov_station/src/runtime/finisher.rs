@@ -86,6 +86,8 @@ impl Finishers {
         let spawned = std::thread::Builder::new()
             .name("station-rec-finish".into())
             .spawn(move || {
+                // Started by the control thread: not at its real-time priority.
+                crate::runtime::priority::normal_current();
                 let taken = theirs
                     .lock()
                     .unwrap_or_else(std::sync::PoisonError::into_inner)

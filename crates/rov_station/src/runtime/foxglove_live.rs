@@ -233,7 +233,11 @@ impl LiveServer {
         let c = Arc::clone(&counters);
         let feeder = std::thread::Builder::new()
             .name("station-foxglove-feed".into())
-            .spawn(move || feed(&rx, &channels, &c))
+            .spawn(move || {
+                // May be started by the control thread: not at its real-time priority.
+                crate::runtime::priority::normal_current();
+                feed(&rx, &channels, &c);
+            })
             .map_err(|e| LiveError::Start(format!("feeder thread: {e}")))?;
         Ok(Self {
             addr: local,

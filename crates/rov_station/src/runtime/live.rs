@@ -404,7 +404,9 @@ fn control_loop(
             let mut stop = false;
             loop {
                 match cmds.try_recv() {
-                    Ok(c) => match host.apply(&mut link, c, clock.now_us()) {
+                    Ok(c) => match timed(clock, period_us, c.name(), || {
+                        host.apply(&mut link, c, clock.now_us())
+                    }) {
                         Followup::None => {}
                         Followup::Shutdown => stop = true,
                         Followup::Stall(d) => std::thread::sleep(d),
@@ -429,7 +431,9 @@ fn control_loop(
                 }
             }
             if now >= next_tick {
-                host.tick(&mut link, now);
+                timed(clock, period_us, "the control tick", || {
+                    host.tick(&mut link, now)
+                });
                 host.publish_port(now);
                 pump(&mut host, &mut link, tx, now);
                 host.record_tapped_truth(&mut link, now);
@@ -493,6 +497,22 @@ fn measured(shared: &Shared, f: impl FnOnce() -> bool) -> bool {
 #[cfg(not(test))]
 fn measured(_shared: &Shared, f: impl FnOnce() -> bool) -> bool {
     f()
+}
+
+/// Runs `f` on the control thread and says (a warning naming `what`) when it took longer
+/// than a control period: whatever holds up the control loop is named in the log.
+fn timed<T>(clock: MonoClock, period_us: u64, what: &str, f: impl FnOnce() -> T) -> T {
+    let t0 = clock.now_us();
+    let out = f();
+    let took_us = clock.now_us().saturating_sub(t0);
+    if took_us > period_us {
+        tracing::warn!(
+            "control thread: {what} took {:.1} ms (a control period is {:.1} ms)",
+            took_us as f64 * 1e-3,
+            period_us as f64 * 1e-3
+        );
+    }
+    out
 }
 
 /// Hands due frames to the tx thread and feeds the link's events to the host.

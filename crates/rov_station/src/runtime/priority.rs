@@ -42,6 +42,33 @@ pub const RT_CONTROL: u8 = 60;
 /// Link rx/tx threads.
 pub const RT_LINK: u8 = 58;
 
+/// Puts the calling thread back to normal scheduling (`SCHED_OTHER`, nice 0). A thread
+/// inherits its creator's scheduling, so a thread created from a real-time thread (the
+/// recorder, a finisher, the camera encoder's start and the GStreamer threads it creates,
+/// the model watch, all started by the control thread) would run at the control
+/// thread's own real-time priority and, being busy, hold it off (seen as a CONTROL STALL
+/// alarm when a recording with video started). Every thread the runtime spawns calls
+/// this first; the real-time ones raise themselves after. Lowering needs no rights; if
+/// the system refuses anyway, the thread keeps what it inherited and says so.
+pub fn normal_current() {
+    let id = thread_priority::thread_native_id();
+    let normal = ThreadPriorityValue::try_from(50u8).map(ThreadPriority::Crossplatform);
+    let lowered = normal.ok().is_some_and(|p| {
+        thread_priority::set_thread_priority_and_policy(
+            id,
+            p,
+            ThreadSchedulePolicy::Normal(thread_priority::NormalThreadSchedulePolicy::Other),
+        )
+        .is_ok()
+    });
+    if !lowered {
+        tracing::warn!(
+            "thread {:?} kept its creator's scheduling (could not return to normal)",
+            std::thread::current().name()
+        );
+    }
+}
+
 /// Raises the calling thread: real-time `rt` if allowed, else the lowest nice allowed.
 #[must_use]
 pub fn raise_current(rt: u8) -> Granted {

@@ -214,7 +214,11 @@ impl Recorder {
         let e = Arc::clone(&error);
         let join = std::thread::Builder::new()
             .name("station-recorder".into())
-            .spawn(move || run(writer, &rx, &c, &e))
+            .spawn(move || {
+                // Started by the control thread: not at its real-time priority.
+                crate::runtime::priority::normal_current();
+                run(writer, &rx, &c, &e)
+            })
             .map_err(RecorderError::Thread)?;
         Ok(Self {
             path: path.to_path_buf(),

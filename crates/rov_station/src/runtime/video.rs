@@ -578,6 +578,9 @@ impl StationVideo {
             std::thread::Builder::new()
                 .name("station-video-encoder-start".into())
                 .spawn(move || {
+                    // Started by the control thread: neither this thread nor the
+                    // encoder's GStreamer threads it creates run at its real-time priority.
+                    crate::runtime::priority::normal_current();
                     if let Err(e) = start() {
                         *lock(&record.error) = Some(e.to_string());
                     }

@@ -156,7 +156,10 @@ impl ReplayVideo {
         let w = Arc::clone(&inner);
         let thread = std::thread::Builder::new()
             .name("station-replay-video".into())
-            .spawn(move || worker(&w, &mut video))?;
+            .spawn(move || {
+                crate::runtime::priority::normal_current();
+                worker(&w, &mut video);
+            })?;
         Ok(Some(Self {
             inner,
             thread: Some(thread),
