@@ -13,33 +13,103 @@
     deny(clippy::unwrap_used, clippy::expect_used, clippy::panic)
 )]
 
-pub mod analysis;
-pub mod calibrate;
-pub mod catalog;
-pub mod cross_validate;
-pub mod data;
-pub mod diagnose;
-pub mod engine;
-mod error;
-pub mod evaluate;
-pub mod ingest;
-pub mod lab;
-pub mod lm;
+// The modules in reading order: data in → model → simulate and fit → compare →
+// diagnose (with the verdict) → report; then the tools built on them. Each is
+// declared on its own (a blank line between) so the order stays as written.
+
+// 1. Data in: a log's bytes to lab runs.
+
+// The one log loader (CSV, MCAP rows, any log through a map).
 pub mod loader;
+
+// The real-log treatment (sample intervals, gaps, spikes), said in words.
+pub mod ingest;
+
+// A log read through a log map (`rov_logs`).
 pub mod mapped;
-pub mod metrics;
-pub mod model;
-pub mod par;
-pub mod params;
-pub mod persist;
-pub mod plots;
-pub mod progress;
-pub mod sim;
+
+// Long logs streamed and decimated to a bounded number of rows.
 pub mod stream;
+
+// A measured run: commands, channels, noise floors.
+pub mod data;
+
+// 2. The model.
+
+// `LabModel`: a base behind the `BaseModel` trait, with effects and terms.
+pub mod model;
+
+// Named scalar parameters that calibration frees.
+pub mod params;
+
+// The 17 catalog effects and their physics.
+pub mod catalog;
+
+// Discovered terms outside the catalog.
 pub mod terms;
-pub mod vehicle_check;
+
+// Saving and loading extended models.
+pub mod persist;
+
+// The one model engine: load a model, fit it on runs, predict a session.
+pub mod engine;
+
+// 3. Simulate and fit.
+
+// A model driven by a run's commands, in three error views.
+pub mod sim;
+
+// The one worker pool.
+pub mod par;
+
+// Bounded Levenberg–Marquardt with finite-difference Jacobians.
+pub mod lm;
+
+// Calibration on the simulation error over runs.
+pub mod calibrate;
+
+// 4. Compare.
+
+// Fit % and RMSE per channel.
+pub mod metrics;
+
+// Held-out evaluation pooled over runs.
+pub mod evaluate;
+
+// Where it fails: residuals by thruster, command, segment.
+pub mod analysis;
+
+// Per-session and leave-one-session-out held-out fit.
+pub mod cross_validate;
+
+// 5. Diagnose, with the verdict.
+
+// The diagnosis: catalog rounds, term search, report.
+pub mod diagnose;
+
+// Is the model consistent with the held-out data?
 pub mod verdict;
+
+// 6. Report and the user-level operations.
+
+// PNG figures.
+pub mod plots;
+
+// Stages and Cancel of long work.
+pub mod progress;
+
+// `topside lab compare|diagnose|add`.
+pub mod lab;
+
+// 7. Tools on the same parts.
+
+// `topside vehicle check`.
+pub mod vehicle_check;
+
+// The model watch (the station's second pair of eyes).
 pub mod watch;
+
+mod error;
 
 pub use catalog::{EffectId, parse_effect_list};
 pub use data::Run;
