@@ -72,7 +72,7 @@ pub(crate) fn dive_panel(app: &mut StationApp, ui: &mut Ui) {
     });
     // The last markers and notes, in a block of fixed height (the panels under it do
     // not move when one is added).
-    let lines = crate::pilot_keys::log_lines(app);
+    let lines = crate::pilot_keys::log_lines(app).to_vec();
     let row_h = ui.text_style_height(&egui::TextStyle::Monospace) + ui.spacing().item_spacing.y;
     let block_h = LOG_ROWS as f32 * row_h;
     let w = ui.available_width();

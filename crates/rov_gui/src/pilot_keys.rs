@@ -112,29 +112,16 @@ pub(crate) fn keys(app: &mut StationApp, ui: &Ui) {
     }
 }
 
-/// Whether an event line is a dive-log marker or note (the station's wording:
-/// "  12.3 s  marker 1 (at 4.2 m, heading 123°, dive 01:02)").
-#[must_use]
-pub fn is_log_line(line: &str) -> bool {
-    let text = line.split_once(" s  ").map_or(line, |(_, t)| t);
-    text.starts_with("marker ") || text.starts_with("note ")
-}
-
-/// The markers and notes among the live station's recent events, newest last.
-pub(crate) fn log_lines(app: &StationApp) -> Vec<String> {
-    app.live_view
-        .events
-        .iter()
-        .filter(|l| is_log_line(l))
-        .map(|l| l.trim().to_string())
-        .collect()
+/// The live station's dive-log markers and notes, newest last.
+pub(crate) fn log_lines(app: &StationApp) -> &[String] {
+    &app.live_view.dive_log
 }
 
 /// Raises a toast when a new marker or note line appears, and paints the current one
 /// for [`TOAST_S`] over the top of the picture, below the heading tape (not over it).
 pub(crate) fn toast(app: &mut StationApp, ctx: &egui::Context) {
     let now = ctx.input(|i| i.time);
-    let newest = log_lines(app).pop();
+    let newest = log_lines(app).last().cloned();
     match &app.toast_seen {
         // The first frame of a connection: what is there already is not news.
         None => app.toast_seen = Some(newest),
@@ -207,21 +194,4 @@ pub(crate) fn record_offer(app: &mut StationApp, ctx: &egui::Context) {
                 }
             });
         });
-}
-
-#[cfg(test)]
-mod tests {
-    use super::is_log_line;
-
-    #[test]
-    fn log_lines_are_markers_and_notes() {
-        assert!(is_log_line(
-            "   12.3 s  marker 1 (at 4.2 m, heading 123°, dive 01:02)"
-        ));
-        assert!(is_log_line(
-            "   12.3 s  note 2: wreck (at 4.2 m, heading 123°)"
-        ));
-        assert!(!is_log_line("   12.3 s  warning: DEPTH LIMIT"));
-        assert!(!is_log_line("   12.3 s  notebook"));
-    }
 }

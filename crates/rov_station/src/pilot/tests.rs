@@ -319,3 +319,24 @@ fn a_fault_injection_command_is_handed_to_the_runtime_and_severities_are_kept() 
     );
     assert!(b.has_event("simulated fault injected"));
 }
+
+#[test]
+fn markers_and_notes_stay_in_the_dive_log_when_the_events_scroll_past_them() {
+    let mut b = Bench::new(cfg());
+    b.run_to(1.0);
+    b.command(RuntimeCommand::Marker);
+    b.command(RuntimeCommand::Note("pipe joint".into()));
+    // More events than the event list keeps (each a "settings" event).
+    for _ in 0..(crate::pilot::view::EVENT_LINES + 5) {
+        b.command(RuntimeCommand::AlarmLimits(b.view().alarm_limits));
+    }
+    b.run_to(1.5);
+    assert!(
+        !b.has_event("marker 1"),
+        "the events list scrolled past the marker"
+    );
+    let log = &b.view().dive_log;
+    assert_eq!(log.len(), 2, "{log:?}");
+    assert!(log[0].contains("marker 1 (at "), "{log:?}");
+    assert!(log[1].contains("note 1: pipe joint (at "), "{log:?}");
+}

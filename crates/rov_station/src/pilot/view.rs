@@ -372,8 +372,12 @@ pub struct StationView {
     pub tick: TickStats,
     /// Commands refused because the command queue was full.
     pub commands_dropped: u64,
-    /// Recent events, newest last.
+    /// Recent events, newest last (the last [`EVENT_LINES`]).
     pub events: Vec<String>,
+    /// The dive log's markers and notes, oldest first, worded as in [`Self::events`]
+    /// (the last [`DIVE_LOG_LINES`]): kept apart from the events, which scroll past them
+    /// within a few turns of a long dive (seen in a 16-minute flight, issue 25).
+    pub dive_log: Vec<String>,
     /// The last command the station refused, with the reason.
     pub last_refusal: Option<String>,
     /// Which instruments have no current data (see [`StaleView`]).
@@ -414,6 +418,9 @@ pub const ERROR_WINDOW_S: f64 = 5.0;
 
 /// Events kept in [`StationView::events`].
 pub const EVENT_LINES: usize = 12;
+
+/// Markers and notes kept in [`StationView::dive_log`] (a session keeps them all).
+pub const DIVE_LOG_LINES: usize = 200;
 
 /// Builds the view from records; see the module docs.
 #[derive(Debug, Clone, Default)]
@@ -665,6 +672,17 @@ impl Pipeline {
         self.push_event(format!("{:7.1} s  {sev}{}", t_s, r.text));
     }
 
+    /// Adds the event list's newest line to the dive log (a marker or a note just added).
+    pub fn log_last_event(&mut self) {
+        if let Some(line) = self.view.events.last() {
+            let log = &mut self.view.dive_log;
+            log.push(line.trim().to_string());
+            if log.len() > DIVE_LOG_LINES {
+                log.remove(0);
+            }
+        }
+    }
+
     /// Adds a line to the event list.
     pub fn push_event(&mut self, line: String) {
         let e = &mut self.view.events;
@@ -855,6 +873,7 @@ crate::clone_fields!(StationView {
     tick,
     commands_dropped,
     events,
+    dive_log,
     last_refusal,
     stale,
     heave_mps,

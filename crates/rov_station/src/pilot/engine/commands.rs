@@ -82,11 +82,13 @@ impl Engine {
                 let n = self.dive.note();
                 let text = format!("note {n}: {} ({})", text.trim(), self.where_now());
                 self.event(now_us, "note", Severity::Info, text);
+                self.pipeline.log_last_event();
             }
             RuntimeCommand::Marker => {
                 let n = self.dive.marker();
                 let text = format!("marker {n} ({})", self.where_now());
                 self.event(now_us, "marker", Severity::Info, text);
+                self.pipeline.log_last_event();
             }
             RuntimeCommand::Checklist(c) => self.checklist(link, c, now_us),
             RuntimeCommand::StartRecording(path) => {
