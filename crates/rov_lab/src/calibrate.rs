@@ -1140,7 +1140,7 @@ pub fn calibration_notes(cal: &Calibration, runs: &[Run]) -> Vec<String> {
                 .unwrap_or(b.scale * 20.0)
         })
         .collect();
-    let mut a = j.transpose() * j;
+    let mut a = j.tr_mul(j);
     for r in 0..p {
         for c in 0..p {
             a[(r, c)] *= sig[r] * sig[c] * ratio / s2;
