@@ -278,6 +278,18 @@ pub struct Calibration {
     pub scales: ChannelScales,
 }
 
+impl Calibration {
+    /// The fit without its linearisation (the Jacobian and residual over the whole
+    /// training data), for a fit read only for its model, costs and uncertainties: a
+    /// diagnosis keeps many (every confirmed candidate's), and each would hold a whole
+    /// dive's rows × parameters.
+    pub fn lean(mut self) -> Self {
+        self.lm.jacobian = None;
+        self.lm.residuals = Vec::new();
+        self
+    }
+}
+
 /// Whether some thruster of group `g` runs in the data (|command| ≥ 5 %); with
 /// `reverse`, runs in reverse.
 pub fn group_used(model: &LabModel, runs: &[Run], g: Thr, reverse: bool) -> bool {
@@ -624,6 +636,7 @@ fn back_to_the_prior(
         if !another_round(&last, round) {
             break;
         }
+        last = last.lean();
         last = fit_scaled(
             &last.model,
             runs,
@@ -729,6 +742,7 @@ fn staged_fit_from(
     crate::progress::stage("calibrating", 1, 4, "stages");
     let mut short_fit = fit(model, runs, free, first_view, None, None, opts)?;
     if !short_fit.lm.converged {
+        short_fit = short_fit.lean();
         short_fit = fit(&short_fit.model, runs, free, first_view, None, None, opts)?;
     }
     crate::progress::stage("calibrating", 2, 4, "stages");
@@ -756,6 +770,9 @@ fn staged_fit_from(
         if !another_round(&noise_fit, round) {
             break;
         }
+        // Only the last round's linearisation is ever read: a whole dive's Jacobian
+        // less while the next round builds its own.
+        noise_fit = noise_fit.lean();
         noise_fit = fit(
             &noise_fit.model,
             runs,
@@ -773,6 +790,7 @@ fn staged_fit_from(
     if s1 == NOISE_ONLY {
         return Ok(noise_fit);
     }
+    drop(noise_fit);
     let rows = row_factors(model, runs, short, &NOISE_ONLY, &s1);
     let obj = Objective::scaled(model, runs, short, &s1);
     let cost = |m: &LabModel| -> f64 {
@@ -781,7 +799,7 @@ fn staged_fit_from(
             .unwrap_or(f64::INFINITY)
     };
     let (start, j0) = if cost(&short_fit.model) <= cost(model) {
-        let j0 = short_fit.lm.jacobian.clone().map(|mut j| {
+        let j0 = short_fit.lm.jacobian.take().map(|mut j| {
             if let Some(f) = &rows
                 && f.len() == j.nrows()
             {
@@ -808,7 +826,8 @@ fn staged_fit_from(
         opts,
         j0,
         &s1,
-    )?;
+    )?
+    .lean();
     let s2 = structural_scales(runs, &misfit_scales(&first.model, runs, shooting)?);
     // Fresh Jacobians here: with channels down-weighted, parameters acting mostly on them
     // are weakly determined, and rank-one updates let them wander. Continued until
@@ -832,6 +851,7 @@ fn staged_fit_from(
         if !another_round(&last, round) {
             break;
         }
+        last = last.lean();
         last = fit_scaled(
             &last.model,
             runs,
@@ -877,20 +897,41 @@ pub(crate) fn row_factors(
     old: &ChannelScales,
     new: &ChannelScales,
 ) -> Option<Vec<f64>> {
+    let blocks = block_factors(model, runs, view, old, new)?;
+    let lens = runs.iter().flat_map(|r| {
+        let nch = blocks.len() / runs.len().max(1);
+        std::iter::repeat_n(r.len(), nch)
+    });
+    let mut out = Vec::new();
+    for (f, len) in blocks.iter().zip(lens) {
+        out.extend(std::iter::repeat_n(*f, len));
+    }
+    Some(out)
+}
+
+/// [`row_factors`] by block: one factor per run and channel (run-major, channels as the
+/// objective's), the same for every sample of the block.
+pub(crate) fn block_factors(
+    model: &LabModel,
+    runs: &[Run],
+    view: View,
+    old: &ChannelScales,
+    new: &ChannelScales,
+) -> Option<Vec<f64>> {
     if old == new {
         return None;
     }
     let a = Objective::scaled(model, runs, view, old);
     let b = Objective::scaled(model, runs, view, new);
-    let mut out = Vec::with_capacity(a.len());
+    let mut out = Vec::with_capacity(runs.len() * a.channels.len());
     let mut any = false;
-    for (ri, run) in runs.iter().enumerate() {
+    for ri in 0..runs.len() {
         for ch in &a.channels {
             let i = ch_index(*ch);
             let (wa, wb) = (a.weights[ri][i], b.weights[ri][i]);
             let f = if wa > 0.0 { wb / wa } else { 0.0 };
             any |= f != 1.0;
-            out.extend(std::iter::repeat_n(f, run.len()));
+            out.push(f);
         }
     }
     any.then_some(out)
@@ -1099,7 +1140,7 @@ pub fn calibration_notes(cal: &Calibration, runs: &[Run]) -> Vec<String> {
                 .unwrap_or(b.scale * 20.0)
         })
         .collect();
-    let mut a = j.transpose() * j;
+    let mut a = j.tr_mul(j);
     for r in 0..p {
         for c in 0..p {
             a[(r, c)] *= sig[r] * sig[c] * ratio / s2;

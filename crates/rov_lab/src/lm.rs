@@ -77,7 +77,7 @@ impl LmResult {
         let Some(j) = &self.jacobian else {
             return vec![f64::NAN; p];
         };
-        let jtj = j.transpose() * j;
+        let jtj = j.tr_mul(j);
         let dof = (self.n_res as f64 - p as f64).max(1.0);
         let s2 = self.cost / dof * inflation.max(1.0);
         // Small relative ridge keeps unexcited directions finite (reported huge).

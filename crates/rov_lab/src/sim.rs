@@ -419,9 +419,29 @@ struct MemoEntry {
     reused: bool,
 }
 
-/// Most simulations a [`Memo`] keeps (a training prediction is about 0.5 MB per 10 min
-/// at 20 Hz).
+/// Most simulations a [`Memo`] keeps (a training prediction is about 0.5 MB per channel
+/// and 10 min at 20 Hz).
 const MEMO_ENTRIES: usize = 16;
+
+/// Most bytes of predictions a [`Memo`] keeps beyond its [`MEMO_MIN_ENTRIES`]: on a long
+/// dive sixteen whole-run predictions would be hundreds of MB (a 1-hour, 50 Hz dive's
+/// is 15 MB), memory that grows with the data.
+const MEMO_BYTES: usize = 64 << 20;
+
+/// Entries a [`Memo`] keeps whatever their size (the current model on the training and
+/// the held-out runs, asked for again and again).
+const MEMO_MIN_ENTRIES: usize = 4;
+
+impl Prediction {
+    /// Bytes of its samples.
+    fn bytes(&self) -> usize {
+        self.y
+            .iter()
+            .flatten()
+            .map(|v| v.len() * std::mem::size_of::<f64>())
+            .sum()
+    }
+}
 
 thread_local! {
     static MEMO: std::cell::RefCell<Option<Memo>> = const { std::cell::RefCell::new(None) };
@@ -497,7 +517,13 @@ pub fn simulate_run(model: &LabModel, run: &Run, resets: &[usize]) -> Result<Pre
             let p = simulate_uncached(model, run, resets)?;
             MEMO.with(|m| {
                 if let Some(memo) = m.borrow_mut().as_mut() {
-                    if memo.entries.len() >= MEMO_ENTRIES {
+                    let over = |memo: &Memo| {
+                        let bytes: usize = memo.entries.iter().map(|e| e.prediction.bytes()).sum();
+                        memo.entries.len() >= MEMO_ENTRIES
+                            || (memo.entries.len() >= MEMO_MIN_ENTRIES
+                                && bytes + p.bytes() > MEMO_BYTES)
+                    };
+                    while !memo.entries.is_empty() && over(memo) {
                         // The least recently used of those never asked for again, else
                         // the least recently used.
                         let i = memo.entries.iter().position(|e| !e.reused).unwrap_or(0);

@@ -209,7 +209,8 @@ pub(super) fn confirm_stage1(
             &opts,
             cached_jacobian(caches.of(first_view), &free, rows_first.as_deref()),
             &cs_first,
-        ) else {
+        )
+        .map(Calibration::lean) else {
             continue;
         };
         let f1 = if converge {
@@ -225,6 +226,7 @@ pub(super) fn confirm_stage1(
                     None,
                     &cs_first,
                 )
+                .map(Calibration::lean)
             })
         } else {
             f1
@@ -256,6 +258,7 @@ pub(super) fn confirm_stage1(
             cached_jacobian(caches.of(view), &free, rows_view.as_deref()),
             &cs_view,
         )
+        .map(Calibration::lean)
     {
         let f2 = if converge {
             continued(f2, |m| {
@@ -270,6 +273,7 @@ pub(super) fn confirm_stage1(
                     None,
                     &cs_view,
                 )
+                .map(Calibration::lean)
             })
         } else {
             f2
@@ -440,6 +444,7 @@ pub(super) fn refine(
             None,
             &cs,
         )
+        .map(Calibration::lean)
     };
     let fitted = fit_from(&stage1.fit.model)?;
     let fitted = if converge {

@@ -319,7 +319,9 @@ fn short_start(
         .with(&[p], &[pick.term.coef * pick.term.scale])
         .ok()
         .and_then(|m0| {
-            crate::calibrate::fit_scaled(&m0, train, &free, view, None, None, &opts, None, &cs).ok()
+            crate::calibrate::fit_scaled(&m0, train, &free, view, None, None, &opts, None, &cs)
+                .map(crate::calibrate::Calibration::lean)
+                .ok()
         });
     let fitted = fit
         .as_ref()

@@ -8,8 +8,8 @@ use nalgebra::{DMatrix, DVector};
 
 use crate::LabError;
 use crate::calibrate::{
-    ChannelScales, Objective, SHOOTING_WINDOW_S, View, effective_n, misfit_scales, row_factors,
-    structural_scales,
+    ChannelScales, Objective, SHOOTING_WINDOW_S, View, block_factors, effective_n, misfit_scales,
+    row_factors, structural_scales,
 };
 use crate::data::Run;
 use crate::model::LabModel;
@@ -169,89 +169,109 @@ pub(super) fn bounded_ls_gram(a: &DMatrix<f64>, g: &DVector<f64>, side: &[i8]) -
     Some(x_full.iter().zip(&norms).map(|(v, n)| v / n).collect())
 }
 
-/// The null of a screening (the base columns B alone, rows weighted for a candidate's
-/// channel weights) with what every alternative [B C] reuses: the weighted B and r0,
-/// BᵀB, Bᵀr0 and the null's residual.
-struct NullBlock {
-    /// The row factors it was weighted with (bit patterns; `None` = unweighted).
-    key: Option<Vec<u64>>,
-    /// Weighted B and r0 (`None`: the unweighted ones).
-    weighted: Option<(DMatrix<f64>, DVector<f64>)>,
-    btb: DMatrix<f64>,
-    btr: DVector<f64>,
-    res0: DVector<f64>,
+/// Rows per chunk when the block Gram matrices are summed (a chunk of every column is
+/// copied to double precision at a time: memory of the columns' count × this, not of
+/// the dive).
+const GRAM_CHUNK: usize = 2048;
+
+/// What the screening needs of the residual r0 and the sensitivity columns M: per block
+/// (one run's one channel, where every candidate's row weights are constant, see
+/// [`crate::calibrate::block_factors`]) the Gram matrix of [r0 | M]. A bounded least
+/// squares of f ⊙ (r0 + M δ) over any subset of the columns, its residual's cost per
+/// channel and the cosines between weighted columns all follow from these
+/// (1 + columns)² numbers per block; no whole-dive matrix is formed.
+struct BlockGrams {
+    /// Per block: the objective's channel index and the Gram matrix (index 0 = r0,
+    /// j + 1 = column j).
+    blocks: Vec<(usize, DMatrix<f64>)>,
 }
 
-impl NullBlock {
-    fn new(
-        key: Option<Vec<u64>>,
-        weighted: Option<(DMatrix<f64>, DVector<f64>)>,
-        b0: &DMatrix<f64>,
-        r0: &DVector<f64>,
-        side: &[i8],
-    ) -> Option<Self> {
-        let (b, r) = match &weighted {
-            Some((b, r)) => (b, r),
-            None => (b0, r0),
-        };
-        let btb = b.tr_mul(b);
-        let btr = b.tr_mul(r);
-        let res0 = if b.ncols() == 0 {
-            r.clone()
-        } else {
-            let x = bounded_ls_gram(&btb, &btr, side)?;
-            r + b * DVector::from_column_slice(&x)
-        };
-        Some(Self {
-            key,
-            weighted,
-            btb,
-            btr,
-            res0,
-        })
-    }
-
-    /// The weighted B and r0.
-    fn parts<'a>(
-        &'a self,
-        b0: &'a DMatrix<f64>,
-        r0: &'a DVector<f64>,
-    ) -> (&'a DMatrix<f64>, &'a DVector<f64>) {
-        match &self.weighted {
-            Some((b, r)) => (b, r),
-            None => (b0, r0),
+impl BlockGrams {
+    /// The Gram matrices of r0 and `cols` (a missing column counts as zeros) over the
+    /// objective's blocks, one block per worker at a time.
+    fn new(obj: &Objective<'_>, r0: &[f64], cols: &[Option<&Vec<f32>>], threads: usize) -> Self {
+        let nch = obj.channels.len();
+        let mut spans: Vec<(usize, usize, usize)> = Vec::new();
+        let mut off = 0;
+        for run in obj.runs {
+            for ci in 0..nch {
+                spans.push((ci, off, run.len()));
+                off += run.len();
+            }
+        }
+        let p1 = cols.len() + 1;
+        let grams = crate::par::par_map_items(&spans, threads, |&(_, start, len)| {
+            let mut g = DMatrix::zeros(p1, p1);
+            let mut k0 = 0;
+            while k0 < len {
+                let k1 = (k0 + GRAM_CHUNK).min(len);
+                let rows = start + k0..start + k1;
+                let mut m = DMatrix::zeros(k1 - k0, p1);
+                if let Some(seg) = r0.get(rows.clone()) {
+                    m.column_mut(0).copy_from_slice(seg);
+                }
+                for (j, c) in cols.iter().enumerate() {
+                    if let Some(seg) = c.and_then(|c| c.get(rows.clone())) {
+                        for (x, v) in m.column_mut(j + 1).iter_mut().zip(seg) {
+                            *x = f64::from(*v);
+                        }
+                    }
+                }
+                g.gemm_tr(1.0, &m, &m, 1.0);
+                k0 = k1;
+            }
+            g
+        });
+        Self {
+            blocks: spans.iter().map(|s| s.0).zip(grams).collect(),
         }
     }
 
-    /// Bounded least squares of r0 + [B C] δ from the cached blocks (only BᵀC, CᵀC and
-    /// Cᵀr0 are new): the alternative's residual and δ.
-    fn alt(
-        &self,
-        b0: &DMatrix<f64>,
-        r0: &DVector<f64>,
-        c: &DMatrix<f64>,
-        side: &[i8],
-    ) -> Option<(DVector<f64>, Vec<f64>)> {
-        let (b, r) = self.parts(b0, r0);
-        let (nb, nc) = (b.ncols(), c.ncols());
-        let btc = b.tr_mul(c);
-        let ctc = c.tr_mul(c);
-        let ctr = c.tr_mul(r);
-        let p = nb + nc;
-        let mut a = DMatrix::zeros(p, p);
-        let mut g = DVector::zeros(p);
-        a.view_mut((0, 0), (nb, nb)).copy_from(&self.btb);
-        a.view_mut((0, nb), (nb, nc)).copy_from(&btc);
-        a.view_mut((nb, 0), (nc, nb)).copy_from(&btc.transpose());
-        a.view_mut((nb, nb), (nc, nc)).copy_from(&ctc);
-        g.rows_mut(0, nb).copy_from(&self.btr);
-        g.rows_mut(nb, nc).copy_from(&ctr);
-        let x = bounded_ls_gram(&a, &g, side)?;
-        let mut res = r.clone();
-        res.gemv(1.0, b, &DVector::from_column_slice(&x[..nb]), 1.0);
-        res.gemv(1.0, c, &DVector::from_column_slice(&x[nb..]), 1.0);
-        Some((res, x))
+    /// Block b's squared row factor (1 without factors).
+    fn f2(f: Option<&[f64]>, b: usize) -> f64 {
+        f.and_then(|f| f.get(b)).map_or(1.0, |x| x * x)
     }
+
+    /// Σ_b f_b² G_b restricted to the indices `s` (0 = r0, j + 1 = column j).
+    fn weighted(&self, f: Option<&[f64]>, s: &[usize]) -> DMatrix<f64> {
+        let mut a = DMatrix::zeros(s.len(), s.len());
+        for (b, (_, g)) in self.blocks.iter().enumerate() {
+            let w = Self::f2(f, b);
+            for (r, &i) in s.iter().enumerate() {
+                for (c, &j) in s.iter().enumerate() {
+                    a[(r, c)] += w * g[(i, j)];
+                }
+            }
+        }
+        a
+    }
+
+    /// Per objective channel (`nch` of them), Σ_b f_b² zᵀ G_b[s, s] z: the cost of the
+    /// weighted residual f ⊙ (r0 + M_s δ) with z = [1, δ] and `s` = [0, columns…].
+    fn channel_costs(&self, f: Option<&[f64]>, s: &[usize], z: &[f64], nch: usize) -> Vec<f64> {
+        let mut costs = vec![0.0; nch];
+        for (b, (ci, g)) in self.blocks.iter().enumerate() {
+            let mut q = 0.0;
+            for (r, &i) in s.iter().enumerate() {
+                for (c, &j) in s.iter().enumerate() {
+                    q += z[r] * g[(i, j)] * z[c];
+                }
+            }
+            if let Some(c) = costs.get_mut(*ci) {
+                *c += Self::f2(f, b) * q.max(0.0);
+            }
+        }
+        costs
+    }
+}
+
+/// The null of a screening (the base columns alone) under one set of block row factors,
+/// and its δ: every candidate with the same factors shares it.
+struct NullFit {
+    /// The block factors it was weighted with (bit patterns; `None` = unweighted).
+    key: Option<Vec<u64>>,
+    /// The base columns' δ of the null fit.
+    x: Vec<f64>,
 }
 
 /// Prediction horizon of the short screening view and of the first confirmation stage,
@@ -342,24 +362,16 @@ pub(super) fn screen(
         }
     }
     let cols: Vec<Option<&Vec<f32>>> = all.iter().map(|p| cache.get(p)).collect();
-    let to_mat = |idx: &[usize]| -> DMatrix<f64> {
-        let mut m = DMatrix::zeros(n, idx.len());
-        for (j, &i) in idx.iter().enumerate() {
-            if let Some(c) = cols[i] {
-                for (k, v) in c.iter().enumerate() {
-                    m[(k, j)] = f64::from(*v);
-                }
-            }
-        }
-        m
-    };
-    let b_idx: Vec<usize> = (0..base_free.len()).collect();
-    let b = to_mat(&b_idx);
-    let rv = DVector::from_column_slice(&r0);
+    let grams = BlockGrams::new(&obj, &r0, &cols, threads);
+    drop(r0);
+    let nch = obj.channels.len();
+    let nb = base_free.len();
+    // Gram indices: 0 = r0, j + 1 = column j of `all` (the base columns first).
+    let b_s: Vec<usize> = std::iter::once(0).chain(1..=nb).collect();
     let mut out = Vec::new();
     // The null fit (base columns alone) depends on the candidate only through its row
     // factors: it is computed once per distinct factor set (bit-equal), not per candidate.
-    let mut null_fits: Vec<NullBlock> = Vec::new();
+    let mut null_fits: Vec<NullFit> = Vec::new();
     for c in cands {
         let idx: Vec<usize> = c
             .params
@@ -369,49 +381,61 @@ pub(super) fn screen(
         if idx.is_empty() {
             continue;
         }
-        let mut cm = to_mat(&idx);
-        let f = row_factors(
+        let f = block_factors(
             model,
             runs,
             view,
             scales,
             &candidate_scales(&home_channels(c.effect), scales),
         );
-        if let Some(f) = &f {
-            scale_rows(&mut cm, f);
-        }
+        let f = f.as_deref();
         let side: Vec<i8> = base_free
             .iter()
             .chain(c.params.iter().filter(|p| eff_index.contains_key(p)))
             .map(|p| bound_side(model, *p))
             .collect();
-        let nb = base_free.len();
-        let key: Option<Vec<u64>> = f.as_ref().map(|f| f.iter().map(|x| x.to_bits()).collect());
+        let key: Option<Vec<u64>> = f.map(|f| f.iter().map(|x| x.to_bits()).collect());
         let null_at = match null_fits.iter().position(|n| n.key == key) {
             Some(i) => i,
             None => {
-                let weighted = f.as_ref().map(|f| {
-                    let mut bb = b.clone();
-                    scale_rows(&mut bb, f);
-                    (bb, rv.component_mul(&DVector::from_column_slice(f)))
-                });
-                let Some(nf) =
-                    NullBlock::new(key, weighted, &b, &rv, side.get(..nb).unwrap_or(&[]))
-                else {
-                    continue;
+                let x = if nb == 0 {
+                    Vec::new()
+                } else {
+                    let a = grams.weighted(f, &b_s);
+                    let btb = a.view((1, 1), (nb, nb)).into_owned();
+                    let btr = a.view((1, 0), (nb, 1)).column(0).into_owned();
+                    let Some(x) = bounded_ls_gram(&btb, &btr, side.get(..nb).unwrap_or(&[])) else {
+                        continue;
+                    };
+                    x
                 };
-                null_fits.push(nf);
+                null_fits.push(NullFit { key, x });
                 null_fits.len() - 1
             }
         };
         let Some(null) = null_fits.get(null_at) else {
             continue;
         };
-        let res0 = &null.res0;
-        let Some((res1, dx)) = null.alt(&b, &rv, &cm, &side) else {
+        // The alternative [B C]: its Gram block, bounded least squares.
+        let s_all: Vec<usize> = b_s
+            .iter()
+            .copied()
+            .chain(idx.iter().map(|i| i + 1))
+            .collect();
+        let a = grams.weighted(f, &s_all);
+        let p = s_all.len() - 1;
+        let am = a.view((1, 1), (p, p)).into_owned();
+        let g = a.view((1, 0), (p, 1)).column(0).into_owned();
+        let Some(dx) = bounded_ls_gram(&am, &g, &side) else {
             continue;
         };
-        let (b, _) = null.parts(&b, &rv);
+        let z0: Vec<f64> = std::iter::once(1.0)
+            .chain(null.x.iter().copied())
+            .chain(std::iter::repeat_n(0.0, idx.len()))
+            .collect();
+        let z1: Vec<f64> = std::iter::once(1.0).chain(dx.iter().copied()).collect();
+        let c0 = grams.channel_costs(f, &s_all, &z0, nch);
+        let c1 = grams.channel_costs(f, &s_all, &z1, nch);
         let dc: Vec<f64> = dx.iter().skip(nb).copied().collect();
         let start_base: Vec<f64> = base_free
             .iter()
@@ -423,12 +447,10 @@ pub(super) fn screen(
                 (v + 0.8 * dx.get(i).copied().unwrap_or(0.0)).clamp(m.lo, m.hi)
             })
             .collect();
-        let (rss0, rss1) = (res0.norm_squared(), res1.norm_squared());
+        let (rss0, rss1): (f64, f64) = (c0.iter().sum(), c1.iter().sum());
         let q = idx.len() as f64;
         let ratio = (rss0 / rss1.max(1e-300)).max(1.0);
         let dbic = n_eff * ratio.ln() - q * n_eff.ln();
-        let c0 = obj.channel_costs(res0.as_slice());
-        let c1 = obj.channel_costs(res1.as_slice());
         let home = home_channels(c.effect);
         let frac = |only_home: bool| {
             obj.channels
@@ -458,20 +480,19 @@ pub(super) fn screen(
                 (cur + dc.get(j).copied().unwrap_or(0.0)).clamp(meta.lo, meta.hi)
             })
             .collect();
-        // Base parameters whose sensitivity overlaps the effect's.
+        // Base parameters whose sensitivity overlaps the effect's (cosines of the weighted
+        // columns, from the alternative's Gram block).
         let mut conf: Vec<(f64, Param)> = Vec::new();
         for (bi, bp) in base_free.iter().enumerate() {
-            let bcol = b.column(bi);
-            let bn = bcol.norm();
+            let bn = a[(bi + 1, bi + 1)].max(0.0).sqrt();
             if bn <= 0.0 {
                 continue;
             }
             let mut best: f64 = 0.0;
-            for j in 0..cm.ncols() {
-                let ccol = cm.column(j);
-                let cn = ccol.norm();
+            for j in nb + 1..=p {
+                let cn = a[(j, j)].max(0.0).sqrt();
                 if cn > 0.0 {
-                    best = best.max((bcol.dot(&ccol) / (bn * cn)).abs());
+                    best = best.max((a[(bi + 1, j)] / (bn * cn)).abs());
                 }
             }
             conf.push((best, *bp));

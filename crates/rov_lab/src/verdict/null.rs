@@ -52,8 +52,9 @@ pub struct NullRefit {
     /// The refitted parameters.
     pub params: Vec<Param>,
     /// The training Jacobian of the multiple-shooting residual to them (weights
-    /// `scales`), at the model the refit started from.
-    pub jacobian: DMatrix<f64>,
+    /// `scales`), at the model the refit started from (shared by the refits that reuse
+    /// it: a whole dive's rows).
+    pub jacobian: std::sync::Arc<DMatrix<f64>>,
     /// The channel scales of that Jacobian's weights.
     pub scales: ChannelScales,
 }
@@ -101,30 +102,40 @@ pub fn null_refit(
         .as_ref()
         .filter(|k| k.columns.nrows() == rows)
         .map_or(0, |k| k.columns.ncols().min(free.len()));
-    let cols: Vec<Option<Vec<f64>>> =
-        crate::diagnose::par_map(n.saturating_sub(known_cols), threads, |i| {
-            let p = all[known_cols + i];
-            let v0 = model.get(p)?;
-            let meta = p.meta();
-            let h = if v0 + meta.scale > meta.hi {
-                -meta.scale
-            } else {
-                meta.scale
-            };
-            let m = model.with(&[p], &[v0 + h]).ok()?;
-            let r = obj.residuals(&m).ok()?;
-            (r.len() == rows).then(|| r.iter().zip(&r0).map(|(a, b)| (a - b) / h).collect())
-        });
     let mut j = DMatrix::zeros(rows, n);
     if let Some(k) = &known {
         for c in 0..known_cols {
             j.set_column(c, &k.columns.column(c));
         }
     }
-    for (i, c) in cols.iter().enumerate() {
-        if let Some(c) = c {
-            j.set_column(known_cols + i, &DVector::from_column_slice(c));
-        }
+    // The other columns written straight into the matrix (a failed one stays zero).
+    if rows > 0
+        && let Some(rest) = j.as_mut_slice().get_mut(known_cols * rows..)
+    {
+        crate::par::par_chunks_mut(rest, rows, threads, |i, col| {
+            let Some(&p) = all.get(known_cols + i) else {
+                return;
+            };
+            let Some(v0) = model.get(p) else {
+                return;
+            };
+            let meta = p.meta();
+            let h = if v0 + meta.scale > meta.hi {
+                -meta.scale
+            } else {
+                meta.scale
+            };
+            let Ok(m) = model.with(&[p], &[v0 + h]) else {
+                return;
+            };
+            if let Ok(r) = obj.residuals(&m)
+                && r.len() == rows
+            {
+                for ((x, a), b) in col.iter_mut().zip(&r).zip(&r0) {
+                    *x = (a - b) / h;
+                }
+            }
+        });
     }
     let (refit, moved, cov) = map_step(model, &all, &j, &r0, &obj, train, scales)?;
     let eval = evaluate(&refit, val)?;
@@ -142,7 +153,7 @@ pub fn null_refit(
         spread,
         moved,
         params: all,
-        jacobian: j,
+        jacobian: std::sync::Arc::new(j),
         scales: *scales,
     })
 }
@@ -188,7 +199,7 @@ pub fn null_refit_from(
         spread: prior.spread,
         moved,
         params: all,
-        jacobian: prior.jacobian.clone(),
+        jacobian: std::sync::Arc::clone(&prior.jacobian),
         scales: prior.scales,
     })
 }
@@ -233,10 +244,11 @@ fn map_step(
         }
     };
     // The MAP step in the diagnosis' weights.
-    let mut a = (j.transpose() * j) / infl;
+    // Products of the whole-dive Jacobian without a transposed or weighted copy of it.
+    let mut a = j.tr_mul(j) / infl;
     ridge(&mut a);
     let r0v = DVector::from_column_slice(r0);
-    let mut g = (j.transpose() * &r0v) / infl;
+    let mut g = j.tr_mul(&r0v) / infl;
     for i in 0..n {
         g[i] += lambda[i] * (theta0[i] - mu[i]);
     }
@@ -272,15 +284,10 @@ fn map_step(
     }
     // The posterior covariance under H₀: the rows back to noise weights.
     let factors = crate::calibrate::row_factors(model, train, shooting, scales, &NOISE_ONLY);
-    let mut jn = j.clone();
-    if let Some(f) = factors.as_ref().filter(|f| f.len() == rows) {
-        for c in 0..n {
-            for (x, k) in jn.column_mut(c).iter_mut().zip(f) {
-                *x *= k;
-            }
-        }
-    }
-    let mut an = (jn.transpose() * &jn) / infl;
+    let mut an = match factors.as_ref().filter(|f| f.len() == rows) {
+        Some(f) => weighted_gram(j, f),
+        None => j.tr_mul(j),
+    } / infl;
     ridge(&mut an);
     let cov = an.try_inverse();
     let theta1 = refit.values(all);
@@ -293,6 +300,27 @@ fn map_step(
         .map(|((p, (a, b)), _)| (p.key(), p.display(*a).0, p.display(*b).0))
         .collect();
     Ok((refit, moved, cov))
+}
+
+/// JᵀF²J for the row factors f (F = diag f), summed column pair by column pair (no
+/// weighted copy of J).
+fn weighted_gram(j: &DMatrix<f64>, f: &[f64]) -> DMatrix<f64> {
+    let p = j.ncols();
+    let mut a = DMatrix::zeros(p, p);
+    for c in 0..p {
+        for r in 0..=c {
+            let v: f64 = j
+                .column(r)
+                .iter()
+                .zip(j.column(c).iter())
+                .zip(f)
+                .map(|((x, y), k)| x * k * (y * k))
+                .sum();
+            a[(r, c)] = v;
+            a[(c, r)] = v;
+        }
+    }
+    a
 }
 
 /// σ_θ per channel: the RMS over the held-out samples of sᵀ C s, s the sensitivities of

@@ -180,6 +180,9 @@ fn exp_memory_by_stage() {
     let (tr, va) = runs(9, &[Hidden::Lag(0.2)], minutes * 60.0, minutes * 20.0);
     let before = rss_mb().unwrap_or_default();
     let t0 = Instant::now();
+    // (stage, start s, peak RSS MB during it): a sampler thread reads the RSS every 10 ms
+    // and charges it to the stage in progress (progress events alone miss the peaks
+    // between them).
     let log: Arc<Mutex<Vec<(String, f64, f64)>>> = Arc::default();
     let l2 = Arc::clone(&log);
     let progress = Progress::with_sink(move |s| {
@@ -190,6 +193,19 @@ fn exp_memory_by_stage() {
             _ => v.push((s.name.clone(), t0.elapsed().as_secs_f64(), rss)),
         }
     });
+    let done = Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let sampler = {
+        let (log, done) = (Arc::clone(&log), Arc::clone(&done));
+        std::thread::spawn(move || {
+            while !done.load(std::sync::atomic::Ordering::Relaxed) {
+                let (rss, _) = rss_mb().unwrap_or_default();
+                if let Some(last) = log.lock().unwrap().last_mut() {
+                    last.2 = last.2.max(rss);
+                }
+                std::thread::sleep(Duration::from_millis(10));
+            }
+        })
+    };
     let m = LabModel::default_base(BaseKind::Model3).unwrap();
     let d = progress
         .run(|| {
@@ -202,6 +218,8 @@ fn exp_memory_by_stage() {
             )
         })
         .unwrap();
+    done.store(true, std::sync::atomic::Ordering::Relaxed);
+    sampler.join().unwrap();
     let after = rss_mb().unwrap_or_default();
     eprintln!(
         "{minutes} min + {:.0} min: {:.1} s wall, RSS before {:.0} MB, peak {:.0} MB; {}",
@@ -212,6 +230,6 @@ fn exp_memory_by_stage() {
         d.summary
     );
     for (name, at, rss) in log.lock().unwrap().iter() {
-        eprintln!("  {at:7.1} s  {rss:6.0} MB  {name}");
+        eprintln!("  {at:7.1} s  peak {rss:6.0} MB  {name}");
     }
 }

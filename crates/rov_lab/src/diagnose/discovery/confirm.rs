@@ -129,7 +129,8 @@ pub(in crate::diagnose) fn confirm_term(
             &opts,
             None,
             &cs,
-        ) else {
+        )
+        .map(crate::calibrate::Calibration::lean) else {
             continue;
         };
         if best.as_ref().is_none_or(|b| f.cost < b.cost) {
