@@ -163,7 +163,7 @@ pub(crate) fn shown_video(app: &StationApp) -> Option<Arc<StationVideo>> {
     h.video().filter(|v| v.is_on()).cloned()
 }
 
-/// The status strip over the picture: REC, link, video and the alarms.
+/// The status strip over the picture: the active alarms, REC, link and video.
 pub(crate) fn status_strip(
     ui: &Ui,
     rect: Rect,
@@ -186,6 +186,15 @@ pub(crate) fn status_strip(
         );
         x = r.max.x + 6.0;
     };
+    // The active alarms first: on a narrow picture the strip is clipped at the right,
+    // and at 1024×600 it cut "VEHICLE CHANGED" to "VEHICLE CHAN" (issue 25's flights).
+    for a in v.alarms.iter().filter(|a| a.active).take(3) {
+        let color = match a.level {
+            AlarmLevel::Alarm => theme::RED,
+            AlarmLevel::Warning => theme::AMBER,
+        };
+        put(a.kind.text().to_uppercase(), color);
+    }
     if v.recording.path.is_some() {
         put(format!("● REC {:.0} s", v.recording.elapsed_s), theme::RED);
     }
@@ -210,13 +219,6 @@ pub(crate) fn status_strip(
             theme::AMBER
         };
         put(format!("VIDEO {:.0} fps{lat}", s.fps), color);
-    }
-    for a in v.alarms.iter().filter(|a| a.active).take(3) {
-        let color = match a.level {
-            AlarmLevel::Alarm => theme::RED,
-            AlarmLevel::Warning => theme::AMBER,
-        };
-        put(a.kind.text().to_uppercase(), color);
     }
 }
 
