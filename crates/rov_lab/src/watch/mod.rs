@@ -247,6 +247,10 @@ struct Cusum {
 struct Pending {
     channel: usize,
     onset_s: f64,
+    /// The latest time the change can have begun: the first window that saw it ended
+    /// here (a CUSUM detection's onset is this less one sub-window); the onset itself
+    /// for a frozen or stepping reading.
+    latest_onset_s: f64,
     detected_s: f64,
     frozen: bool,
     /// The size of the sensor step that was detected (m or degrees), if that was it.
@@ -535,7 +539,7 @@ impl Watch {
             if let Some(start) = fired {
                 // The excursion's first hop saw the change in its last sub-window.
                 let onset = start - self.cfg.window_s / SUB as f64;
-                self.detect(i, onset, t, false);
+                self.detect_between(i, onset, start, t, false);
                 break;
             }
         }
@@ -567,9 +571,21 @@ impl Watch {
     }
 
     fn detect(&mut self, channel: usize, onset_s: f64, t: f64, frozen: bool) {
+        self.detect_between(channel, onset_s, onset_s, t, frozen);
+    }
+
+    fn detect_between(
+        &mut self,
+        channel: usize,
+        onset_s: f64,
+        latest_onset_s: f64,
+        t: f64,
+        frozen: bool,
+    ) {
         self.pending = Some(Pending {
             channel,
             onset_s,
+            latest_onset_s,
             detected_s: t,
             frozen,
             step_size: None,
@@ -684,6 +700,7 @@ impl Watch {
             noise: &rest_noise,
             subtract_mu: false,
             onset_s: onset,
+            latest_onset_s: onset,
             frozen: None,
         });
         let explained = causes
@@ -741,9 +758,16 @@ impl Watch {
                 .cloned()
                 .collect()
         };
-        // Windows wholly after the onset carry the change alone; fall back to every
-        // window that saw it when there are too few.
-        let mut post = after(p.onset_s + self.cfg.window_s - 1e-9);
+        // Windows wholly after the change carry it alone: those that start after the
+        // latest onset the detection allows (the physical causes' change time is then
+        // fitted between the onset estimate and that, [`causes`]); with too few of
+        // those, the windows after the onset estimate, then every window that saw it.
+        let mut latest_onset_s = p.latest_onset_s;
+        let mut post = after(latest_onset_s + self.cfg.window_s - 1e-9);
+        if post.len() < 2 {
+            latest_onset_s = p.onset_s;
+            post = after(p.onset_s + self.cfg.window_s - 1e-9);
+        }
         if post.len() < 2 {
             post = after(p.onset_s);
         }
@@ -773,6 +797,7 @@ impl Watch {
             noise: &self.noise,
             subtract_mu: true,
             onset_s: p.onset_s,
+            latest_onset_s,
             frozen: p.frozen.then_some(p.channel),
         });
         // A step the readings made (see [`steps`]) is measured directly: its size
