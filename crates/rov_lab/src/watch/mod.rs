@@ -257,6 +257,20 @@ struct Pending {
     step_size: Option<f64>,
 }
 
+/// A physical change the watch adopted into its model: what a follow-on detection of the
+/// same cause is refitted with.
+#[derive(Debug, Clone)]
+struct Adopted {
+    /// The watch's model before the change.
+    before: LabModel,
+    onset_s: f64,
+    latest_onset_s: f64,
+    /// The windows the change's causes were fitted on.
+    hops: Vec<Hop>,
+    /// The last of them, s.
+    last_hop_s: f64,
+}
+
 /// The monitor; see the module docs.
 #[derive(Debug, Clone)]
 pub struct Watch {
@@ -284,6 +298,8 @@ pub struct Watch {
     /// Channels taken out of the watch (a sensor fault), [`CHANNELS`] order.
     disabled: [bool; 4],
     steps: steps::Steps,
+    /// The last physical change adopted, while a follow-on may refine it.
+    adopted: Option<Adopted>,
 }
 
 /// A gap in the rows longer than this restarts the watch's history, s.
@@ -319,6 +335,7 @@ impl Watch {
             holdoff_until_s: None,
             disabled: [false; 4],
             steps: steps::Steps::default(),
+            adopted: None,
         }
     }
 
@@ -611,8 +628,9 @@ impl Watch {
         start
     }
 
-    /// Takes a raised change into the watch (see the module docs, step 6).
-    fn adopt(&mut self, alert: &Alert, channel: usize, t: f64) {
+    /// Takes a raised change into the watch (see the module docs, step 6); whether a
+    /// physical cause became part of the model.
+    fn adopt(&mut self, alert: &Alert, channel: usize, t: f64) -> bool {
         self.cusum = [Cusum::default(); 4];
         self.frozen_hops = [0; 4];
         let best = alert.causes.first();
@@ -624,7 +642,7 @@ impl Watch {
             self.model = m;
             // Windows that straddle the change are not judged against the changed model.
             self.holdoff_until_s = Some(t + self.cfg.history_s);
-            return;
+            return true;
         }
         if best.is_some_and(|c| !c.is_physical() && c.score >= 0.5) {
             let sensor = match best.and_then(|c| c.fitted.as_ref()).map(|f| f.0) {
@@ -650,11 +668,12 @@ impl Watch {
                 }
             }
             self.holdoff_until_s = Some(t + self.cfg.history_s);
-            return;
+            return false;
         }
         // The new normal.
         self.learn.clear();
         self.learn_until_s = Some(t + self.cfg.relearn_s);
+        false
     }
 
     /// Fits the noise floors at the end of a baseline; the first one may say mismatch.
@@ -836,9 +855,15 @@ impl Watch {
             detected_s: self.rel(t),
             refined: 0,
         };
-        self.adopt(&alert, p.channel, t);
+        let before = self.model.clone();
+        let adopted_now = self.adopt(&alert, p.channel, t);
         // The same cause again within `relearn_s` of the last change: the first fit
-        // under-sized it (it sees only seconds of the change); fold the rest in.
+        // was incomplete (it sees only seconds of the change, at one heading and one set
+        // of commands). Every cause is fitted again, against the model before that
+        // change, on the windows of both detections: a cause the new windows contradict
+        // (a snag fixed to the seabed fitted where a thrust loss, fixed to the hull,
+        // turns with the vehicle) no longer explains them all, and the one that does is
+        // sized on all of them. Without that record, the two fits are folded.
         if let Some(last) = self.alerts.last_mut()
             && last.kind == AlertKind::Change
             && alert.detected_s - last.detected_s <= self.cfg.relearn_s
@@ -847,12 +872,56 @@ impl Watch {
             && a.is_physical()
             && b.score >= 0.5
         {
-            a.fold(b);
+            let refit = self.adopted.as_ref().and_then(|ad| {
+                let mut hops = ad.hops.clone();
+                hops.extend(
+                    post.iter()
+                        .filter(|h| h.t_s > ad.last_hop_s + 1e-9)
+                        .cloned(),
+                );
+                let causes = rank(&FitInput {
+                    model: &ad.before,
+                    rows: &rows,
+                    present: self.present,
+                    cfg: &self.cfg,
+                    hops: &hops,
+                    noise: &self.noise,
+                    subtract_mu: true,
+                    onset_s: ad.onset_s,
+                    latest_onset_s: ad.latest_onset_s,
+                    frozen: None,
+                });
+                let best = causes.first()?;
+                if !best.is_physical() || best.score < 0.5 {
+                    return None;
+                }
+                let (cause, theta) = best.fitted.as_ref()?;
+                let model = cause.apply(&ad.before, theta)?;
+                Some((causes, hops, model))
+            });
+            match refit {
+                Some((causes, hops, model)) => {
+                    last.causes = causes;
+                    self.model = model;
+                    if let Some(ad) = &mut self.adopted {
+                        ad.last_hop_s = hops.last().map_or(ad.last_hop_s, |h| h.t_s);
+                        ad.hops = hops;
+                    }
+                }
+                None => a.fold(b),
+            }
             last.size_noise = last.size_noise.max(alert.size_noise);
             last.detected_s = alert.detected_s;
             last.refined += 1;
             return Some(last.clone());
         }
+        self.adopted = adopted_now.then(|| Adopted {
+            before,
+            onset_s: p.onset_s,
+            latest_onset_s,
+            last_hop_s: post.last().map_or(t, |h| h.t_s),
+            hops: post,
+        });
         self.alerts.push(alert.clone());
         Some(alert)
     }
