@@ -33,13 +33,18 @@
 //!    faster than the vehicle can move ([`steps`]).
 //! 5. **Causes.** `evidence_s` after the onset, every cause of [`causes`] is fitted alone
 //!    to the residuals after the onset (the lab model changed along that cause's
-//!    parameters, through the lab's simulator) and ranked by the share it explains.
+//!    parameters, through the lab's simulator; a physical cause's change time is fitted
+//!    too, the onset estimate or the latest onset the detection allows) and ranked by
+//!    the share it explains.
 //! 6. After a change the watch adopts it: a physical cause that explains at least half
 //!    of the residual becomes part of the watch's model (so the same change is not
 //!    reported again, and a second change is measured against the changed vehicle); a
 //!    sensor cause takes that channel out of the watch for the rest of the dive (its
 //!    readings are no longer believed); anything else is learned as the new normal for
-//!    `relearn_s`. Then it watches again.
+//!    `relearn_s`. Then it watches again. A follow-on detection of the same physical
+//!    cause within `relearn_s` means the first fit was incomplete: every cause is
+//!    refitted, against the model before the change, on the windows of both detections,
+//!    and the alert is refined (its ranking replaced, its best re-adopted).
 
 // Channel × sub-window arrays read clearer with index loops.
 #![allow(clippy::needless_range_loop)]
