@@ -276,7 +276,9 @@ impl Cause {
                     theta.get(1).copied().unwrap_or(0.0),
                 );
                 let bearing = rov_types::angle::wrap_deg_360(e.atan2(n).to_degrees());
-                format!("SNAG {size:.0} N TOWARDS {bearing:03.0}°")
+                // A pull under 10 N to a tenth (a 0.3 N pull is not "0 N").
+                let digits = if size < 10.0 { 1 } else { 0 };
+                format!("SNAG {size:.digits$} N TOWARDS {bearing:03.0}°")
             }
             Cause::DepthSensor => format!("DEPTH SENSOR OFF {size:+.2} m"),
             Cause::Compass => format!("COMPASS OFF {size:+.0}°"),

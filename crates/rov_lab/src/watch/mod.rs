@@ -83,6 +83,12 @@ pub const HEADING_RATIO_FACTOR: f64 = 2.5;
 /// Sub-windows per window.
 pub const SUB: usize = 3;
 
+/// A runner-up cause leaving less than this many times the best cause's unexplained
+/// residual is not told apart from it ([`Alert::undecided`]): with a few dozen residual
+/// sub-windows, a ratio of two between two one- or two-parameter fits is within what the
+/// windows' own noise gives (an F ratio at about 95 % for 30–40 degrees of freedom each).
+pub const UNDECIDED_RATIO: f64 = 2.0;
+
 /// Settings of the watch (defaults documented per field).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct WatchConfig {
@@ -176,13 +182,34 @@ pub struct Alert {
 }
 
 impl Alert {
-    /// The alert in words: "PORT THRUST −40 %" for a change, "MODEL MISMATCH (…)" for a
-    /// mismatch.
+    /// The runner-up cause when the windows do not tell it from the best: a different
+    /// cause that explains at least half of the residual and leaves less than
+    /// [`UNDECIDED_RATIO`] times the best's unexplained share. On windows flown at one
+    /// heading with steady commands, a side's thrust loss and a horizontal pull differ
+    /// only in the surge they take and the sway they add, neither of which the vehicle
+    /// measures; the watch names both rather than one with confidence.
+    pub fn undecided(&self) -> Option<&CauseScore> {
+        let best = self.causes.first()?;
+        let next = self.causes.get(1)?;
+        let left = |c: &CauseScore| (1.0 - c.score).max(0.0);
+        (next.cause != best.cause
+            && next.score >= 0.5
+            && left(next) < UNDECIDED_RATIO * left(best).max(1e-3))
+        .then_some(next)
+    }
+
+    /// The alert in words: "PORT THRUST −40 %" for a change ("PORT THRUST −40 % OR SNAG
+    /// 1 N TOWARDS 224°" when [`Alert::undecided`]), "MODEL MISMATCH (…)" for a mismatch.
     pub fn words(&self) -> String {
         let best = self.causes.first().map(|c| c.words.clone());
         match self.kind {
             AlertKind::Change => {
-                best.unwrap_or_else(|| format!("{} CHANGED", self.channel.to_uppercase()))
+                let best =
+                    best.unwrap_or_else(|| format!("{} CHANGED", self.channel.to_uppercase()));
+                match self.undecided() {
+                    Some(next) => format!("{best} OR {}", next.words),
+                    None => best,
+                }
             }
             AlertKind::Mismatch => format!(
                 "MODEL MISMATCH ON {}{}: TRY THE LAB",
@@ -983,4 +1010,56 @@ pub fn watch_json(alerts: &[Alert], stats: &WatchStats, cfg: &WatchConfig) -> se
         "alerts": alerts,
         "judged_s": stats.judged_hops as f64 * cfg.hop_s,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn cause(id: &str, score: f64, words: &str) -> CauseScore {
+        CauseScore {
+            cause: id.into(),
+            size: 0.0,
+            unit: "-".into(),
+            score,
+            words: words.into(),
+            from_s: None,
+            fitted: None,
+        }
+    }
+
+    fn change(causes: Vec<CauseScore>) -> Alert {
+        Alert {
+            t_s: 0.0,
+            kind: AlertKind::Change,
+            channel: "heading".into(),
+            size_noise: 10.0,
+            causes,
+            detected_s: 6.0,
+            refined: 0,
+        }
+    }
+
+    #[test]
+    fn a_runner_up_the_windows_do_not_tell_apart_is_named_too() {
+        // The 40 % port loss under heading hold: 0.8 % left against 1.5 %.
+        let a = change(vec![
+            cause("thrust-loss:port", 0.992, "PORT THRUST −40 %"),
+            cause("snag", 0.985, "SNAG 0.6 N TOWARDS 221°"),
+        ]);
+        assert_eq!(a.words(), "PORT THRUST −40 % OR SNAG 0.6 N TOWARDS 221°");
+        // Told apart: the runner-up leaves more than twice as much.
+        let a = change(vec![
+            cause("thrust-loss:starboard", 0.998, "STARBOARD THRUST −40 %"),
+            cause("snag", 0.993, "SNAG 0.7 N TOWARDS 100°"),
+        ]);
+        assert_eq!(a.words(), "STARBOARD THRUST −40 %");
+        // A runner-up that explains less than half is never named.
+        let a = change(vec![
+            cause("compass", 0.6, "COMPASS OFF +25°"),
+            cause("drag", 0.45, "DRAG ×1.1"),
+        ]);
+        assert!(a.undecided().is_none());
+        assert_eq!(a.words(), "COMPASS OFF +25°");
+    }
 }
