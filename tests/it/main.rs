@@ -6,6 +6,7 @@ mod driver;
 mod depth_hold_chatter;
 mod driver_mock_link;
 mod driver_pty_link;
+mod heading_hold_surging;
 mod hold_acceptance;
 mod layering;
 mod pilot_alarms;

@@ -17,10 +17,19 @@
 //! corrects still gets the full correction, and only the forward speed drops. The
 //! vertical thruster is independent and only clamped.
 //!
-//! The allocation is done in percent, which is exact for a linear thrust map and for
-//! pure yaw or pure surge with a quadratic one; with both at once a quadratic map makes
-//! the produced moment somewhat larger than the differential map predicts, which the
-//! heading feedback absorbs.
+//! [`allocate`] works in percent, which is exact for a linear thrust map and for pure yaw
+//! or pure surge. With both at once and a quadratic map it is not: the moment a
+//! differential of `d` % produces grows with the common mode (model3 at 50 % surge: ten
+//! times the moment of `d` alone for a small `d`), so the heading loop's gain multiplied
+//! with the pilot's forward stick and the hold limit-cycled at ~3.7 Hz against the
+//! output slew limit while surging (issue 25). [`allocate_in_force`] is what the
+//! controller uses: the yaw demand becomes the force difference it stands for on the
+//! control plant's thrust map, that difference is split evenly about each thruster's
+//! surge force, and each thruster's command is that force through its own inverse map
+//! (dead zone included). The same priority holds: when a thruster would pass the limit
+//! the surge is scaled down (bisection on the common mode) until both fit.
+
+use crate::feedforward::{DEAD_ZONE_BLEND_PCT, FeedforwardModel, PlantModel};
 
 /// Demands in percent.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -84,6 +93,72 @@ pub fn allocate(demand: ThrustDemand, limit_pct: f64) -> Allocation {
         yaw_saturated: yaw_c != yaw,
         vertical_saturated: vertical_c != vertical,
         non_finite_demand: non_finite,
+    }
+}
+
+/// Allocates `demand` in force on the control plant's thrust maps (see the module
+/// documentation): `yaw_pct` is a pure-differential demand (what
+/// [`FeedforwardModel::differential_pct_for_moment`] returns) and is kept as the yaw
+/// moment it produces, whatever the surge; `surge_pct` is the command both horizontal
+/// thrusters get without yaw. Falls back to [`allocate`] if the plant cannot produce the
+/// moment even with no surge (an asymmetric map at the limit).
+pub fn allocate_in_force(demand: ThrustDemand, limit_pct: f64, plant: &PlantModel) -> Allocation {
+    let pct_alloc = allocate(demand, limit_pct);
+    if pct_alloc.non_finite_demand {
+        return pct_alloc;
+    }
+    let limit = limit_pct.clamp(0.0, 100.0);
+    let yaw_c = demand.yaw_pct.clamp(-limit, limit);
+    let surge_c = demand.surge_pct.clamp(-limit, limit);
+    let half_diff_n = 0.5 * plant.yaw_moment_for_pct(yaw_c, -yaw_c) / plant.yaw_arm_m;
+    // Port and starboard commands for the surge scaled by `s`, if both are within limit.
+    let pair = |s: f64| -> Option<(f64, f64)> {
+        let sp = s * surge_c;
+        let fp = plant
+            .port
+            .force_n_clamped(plant.port_path.through_dead_zone(sp))
+            + half_diff_n;
+        let fs = plant
+            .starboard
+            .force_n_clamped(plant.starboard_path.through_dead_zone(sp))
+            - half_diff_n;
+        let ip = plant.port.inverse(fp);
+        let is = plant.starboard.inverse(fs);
+        let pp = plant
+            .port_path
+            .before_dead_zone(ip.pct, DEAD_ZONE_BLEND_PCT);
+        let ps = plant
+            .starboard_path
+            .before_dead_zone(is.pct, DEAD_ZONE_BLEND_PCT);
+        let within = |p: f64| p.is_finite() && p.abs() <= limit + 1e-9;
+        (!ip.saturated && !is.saturated && within(pp) && within(ps)).then_some((pp, ps))
+    };
+    let (scale, (port, starboard)) = match pair(1.0) {
+        Some(p) => (1.0, p),
+        None => {
+            let Some(at_zero) = pair(0.0) else {
+                return pct_alloc;
+            };
+            // Largest feasible common mode: 30 halvings resolve it to 1e-9 of the demand.
+            let (mut lo, mut hi, mut best) = (0.0, 1.0, at_zero);
+            for _ in 0..30 {
+                let mid = 0.5 * (lo + hi);
+                match pair(mid) {
+                    Some(p) => {
+                        lo = mid;
+                        best = p;
+                    }
+                    None => hi = mid,
+                }
+            }
+            (lo, best)
+        }
+    };
+    Allocation {
+        port_pct: port.clamp(-limit, limit),
+        starboard_pct: starboard.clamp(-limit, limit),
+        surge_reduced: scale < 1.0 || surge_c != demand.surge_pct,
+        ..pct_alloc
     }
 }
 

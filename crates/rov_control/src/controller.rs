@@ -31,7 +31,7 @@
 //! ([`crate::feedforward::LAG_LEAD_MAX_PCT`]), the dead band is added to non-zero demands
 //! and the vertical thruster's reaction torque is a known yaw load.
 
-use crate::allocation::{Allocation, ThrustDemand, allocate};
+use crate::allocation::{Allocation, ThrustDemand, allocate_in_force};
 use crate::angle::{wrap_2pi, wrap_pi};
 use crate::config::{AxisConfig, ControlConfig, FeedforwardForce};
 use crate::error::ControlError;
@@ -942,13 +942,14 @@ impl Controller {
             self.cfg.surge_deadband,
             self.cfg.surge_max_pct,
         );
-        let allocation = allocate(
+        let allocation = allocate_in_force(
             ThrustDemand {
                 surge_pct,
                 yaw_pct: h_diag.demand_pct,
                 vertical_pct: d_diag.demand_pct,
             },
             self.cfg.guard.max_pct,
+            plant,
         );
         let (command, guard) = self.guard.apply(
             allocation.port_pct,

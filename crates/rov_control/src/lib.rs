@@ -47,7 +47,7 @@ pub mod pilot;
 pub mod profile;
 pub mod reference;
 
-pub use allocation::{Allocation, ThrustDemand, allocate};
+pub use allocation::{Allocation, ThrustDemand, allocate, allocate_in_force};
 pub use config::{AxisConfig, ControlConfig, FeedforwardForce};
 pub use controller::{
     AxisDiagnostics, Controller, Faults, Measurements, ModelSet, TickDiagnostics, TickOutput,

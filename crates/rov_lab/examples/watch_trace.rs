@@ -50,6 +50,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             shown = true;
         }
         for a in w.push(r) {
+            println!("WORDS {} at {:.1} s", a.words(), a.t_s);
             println!("ALERT {:?}", a);
         }
     }

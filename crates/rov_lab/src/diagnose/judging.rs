@@ -689,4 +689,62 @@ mod tests {
                 .vetoing
         );
     }
+
+    fn judgement(conflict_channels: Vec<(String, bool)>, leaves: Option<Inadequacy>) -> Judgement {
+        Judgement {
+            significant: true,
+            channels: Vec::new(),
+            view: View::FreeRun,
+            primary: BTreeMap::new(),
+            free: BTreeMap::new(),
+            shoot: BTreeMap::new(),
+            score: 1.0,
+            explained: BTreeMap::new(),
+            reason: "significant".into(),
+            conflicts: conflict_channels
+                .iter()
+                .map(|(ch, _)| format!("{ch} gets 40 % worse in multiple shooting"))
+                .collect(),
+            conflict_channels,
+            leaves,
+        }
+    }
+
+    #[test]
+    fn a_trade_on_a_base_that_stays_inadequate_is_refused_and_says_why() {
+        let inad = Inadequacy {
+            channels: vec![
+                ("surge".into(), 16.4),
+                ("depth".into(), 5.5),
+                ("heading".into(), 4.2),
+            ],
+        };
+        let left = Inadequacy {
+            channels: vec![
+                ("surge".into(), 16.0),
+                ("heading".into(), 5.0),
+                ("depth".into(), 2.6),
+            ],
+        };
+        // Trades heading for depth on a base that stays inadequate: refused.
+        let mut j = judgement(vec![("heading".into(), true)], Some(left.clone()));
+        assert!(veto_on_inadequate_base(&mut j, Some(&inad)));
+        assert!(!j.significant);
+        assert!(j.reason.contains("structurally inadequate"), "{}", j.reason);
+        assert!(j.reason.contains("heading"), "{}", j.reason);
+        assert!(
+            j.conflicts.iter().all(|c| c.contains(BASE_VETO_MARK)),
+            "{:?}",
+            j.conflicts
+        );
+        // No trade (nothing worse outside rule (b)): kept.
+        let mut j = judgement(vec![("heading".into(), false)], Some(left.clone()));
+        assert!(!veto_on_inadequate_base(&mut j, Some(&inad)) && j.significant);
+        // The finding brings the model out of inadequacy: kept.
+        let mut j = judgement(vec![("heading".into(), true)], None);
+        assert!(!veto_on_inadequate_base(&mut j, Some(&inad)) && j.significant);
+        // An adequate base: kept.
+        let mut j = judgement(vec![("heading".into(), true)], Some(left));
+        assert!(!veto_on_inadequate_base(&mut j, None) && j.significant);
+    }
 }

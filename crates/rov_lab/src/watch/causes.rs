@@ -16,7 +16,11 @@
 //!
 //! The physical causes are fitted by Gauss–Newton on the lab model itself (finite
 //! differences through [`crate::sim::simulate_run`]), each alone, to the normalised
-//! residual of the hops after the onset; the sensor causes are a step of the reading
+//! residual of the hops after the onset, their change time fitted too (the onset
+//! estimate, or the latest onset the detection allows: a thrust loss flown from before
+//! the vehicle lost it predicts a turn that its heading hold, with nothing to correct
+//! yet, never had to stop, and a 2-parameter snag then explains that residual better
+//! than the true loss); the sensor causes are a step of the reading
 //! (a jump) or a reading that stops following the motion (stuck) from a time scanned
 //! around the onset. The score is the share of the normalised residual energy the
 //! fitted cause explains, 1 − RSS(θ̂)/RSS(0), in [0, 1], halved when the fitted size
@@ -272,7 +276,9 @@ impl Cause {
                     theta.get(1).copied().unwrap_or(0.0),
                 );
                 let bearing = rov_types::angle::wrap_deg_360(e.atan2(n).to_degrees());
-                format!("SNAG {size:.0} N TOWARDS {bearing:03.0}°")
+                // A pull under 10 N to a tenth (a 0.3 N pull is not "0 N").
+                let digits = if size < 10.0 { 1 } else { 0 };
+                format!("SNAG {size:.digits$} N TOWARDS {bearing:03.0}°")
             }
             Cause::DepthSensor => format!("DEPTH SENSOR OFF {size:+.2} m"),
             Cause::Compass => format!("COMPASS OFF {size:+.0}°"),
@@ -316,6 +322,10 @@ pub(crate) struct FitInput<'a> {
     pub subtract_mu: bool,
     /// Onset estimate, s (a mismatch: the first hop's time).
     pub onset_s: f64,
+    /// The latest time the change can have begun, s (the onset estimate when the
+    /// detection says no more, or when too few windows start after it). The physical
+    /// causes' change time is fitted between the two; `hops` start after both.
+    pub latest_onset_s: f64,
     /// Channel whose reading froze, if that is what was detected.
     pub frozen: Option<usize>,
 }
@@ -324,9 +334,8 @@ pub(crate) struct FitInput<'a> {
 /// flies the time before the change. Its unmeasured velocities at the onset come from the
 /// nominal model's run over the full history (the vehicle was nominal until then). A
 /// window too close to the onset for that keeps the full history.
-fn post_onset_chunk(input: &FitInput<'_>, t_end_s: f64) -> Option<Chunk> {
+fn post_onset_chunk(input: &FitInput<'_>, t_end_s: f64, start: f64) -> Option<Chunk> {
     let full = chunk(input.rows, input.present, t_end_s, input.cfg)?;
-    let start = input.onset_s;
     let straddles = full.run.t.first().is_some_and(|t0| *t0 < start - 0.5);
     if !input.subtract_mu || !straddles || t_end_s - start < input.cfg.window_s + 0.5 {
         return Some(full);
@@ -342,10 +351,11 @@ fn post_onset_chunk(input: &FitInput<'_>, t_end_s: f64) -> Option<Chunk> {
     Some(short)
 }
 
-fn prepare(input: &FitInput<'_>) -> Vec<Prepared> {
+/// The hops prepared with the changed model flying from `start`.
+fn prepare(input: &FitInput<'_>, start: f64) -> Vec<Prepared> {
     let mut out = Vec::new();
     for h in input.hops {
-        let Some(c) = post_onset_chunk(input, h.t_s) else {
+        let Some(c) = post_onset_chunk(input, h.t_s, start) else {
             continue;
         };
         let Some(traj) = trajectory(input.model, &c) else {
@@ -556,27 +566,54 @@ fn fit_sensor(
 
 /// Ranks every cause, best first.
 pub(crate) fn rank(input: &FitInput<'_>) -> Vec<CauseScore> {
-    let prep = prepare(input);
-    let causes = Cause::all_for(input.model);
-    let mut r0 = Vec::new();
-    for p in &prep {
-        r0.extend(p.residual(&p.f));
-    }
+    let prep = prepare(input, input.onset_s);
+    let residual0 = |prep: &[Prepared]| -> Vec<f64> {
+        let mut r0 = Vec::new();
+        for p in prep {
+            r0.extend(p.residual(&p.f));
+        }
+        r0
+    };
+    let r0 = residual0(&prep);
     let rss0 = ss(&r0).max(1e-12);
+    // The physical causes' change time, fitted: the onset estimate or the latest onset
+    // the detection allows, on the same windows. A changed model flown from before the
+    // vehicle changed predicts a response the vehicle never made: a thrust loss applied
+    // while the commands were still the old ones turns the model where the vehicle, its
+    // heading hold having had nothing to correct yet, did not.
+    let late = (input.latest_onset_s > input.onset_s + 1e-6)
+        .then(|| prepare(input, input.latest_onset_s))
+        .filter(|p| !p.is_empty())
+        .map(|p| {
+            let r = residual0(&p);
+            let rss = ss(&r).max(1e-12);
+            (p, r, rss)
+        });
     let mut out = Vec::new();
-    for cause in causes {
-        let (theta, rss, from_s) = match cause {
+    for cause in Cause::all_for(input.model) {
+        let (theta, score, from_s) = match cause {
             Cause::DepthSensor | Cause::Compass => {
                 let i = if cause == Cause::DepthSensor { 0 } else { 1 };
                 let (size, rss, from) = fit_sensor(&prep, i, &r0, input.onset_s, input.subtract_mu);
-                (vec![size], rss, from)
+                (vec![size], 1.0 - rss / rss0, from)
             }
-            _ => match fit_physical(&prep, input.model, cause, &r0) {
-                Some((t, rss)) => (t, rss, None),
-                None => continue,
-            },
+            _ => {
+                let mut best: Option<(Vec<f64>, f64)> =
+                    fit_physical(&prep, input.model, cause, &r0)
+                        .map(|(t, rss)| (t, 1.0 - rss / rss0));
+                if let Some((p, r, rss_l)) = &late
+                    && let Some((t, rss)) = fit_physical(p, input.model, cause, r)
+                    && best.as_ref().is_none_or(|b| 1.0 - rss / rss_l > b.1)
+                {
+                    best = Some((t, 1.0 - rss / rss_l));
+                }
+                match best {
+                    Some((t, score)) => (t, score, None),
+                    None => continue,
+                }
+            }
         };
-        let mut score = (1.0 - rss / rss0).clamp(0.0, 1.0);
+        let mut score = score.clamp(0.0, 1.0);
         // A fit that ends at its search bound did not find the cause's size within
         // what is physically plausible: it explains the residual only by being pushed
         // as far as allowed, so it is not presented as a finding of that size.

@@ -33,13 +33,18 @@
 //!    faster than the vehicle can move ([`steps`]).
 //! 5. **Causes.** `evidence_s` after the onset, every cause of [`causes`] is fitted alone
 //!    to the residuals after the onset (the lab model changed along that cause's
-//!    parameters, through the lab's simulator) and ranked by the share it explains.
+//!    parameters, through the lab's simulator; a physical cause's change time is fitted
+//!    too, the onset estimate or the latest onset the detection allows) and ranked by
+//!    the share it explains.
 //! 6. After a change the watch adopts it: a physical cause that explains at least half
 //!    of the residual becomes part of the watch's model (so the same change is not
 //!    reported again, and a second change is measured against the changed vehicle); a
 //!    sensor cause takes that channel out of the watch for the rest of the dive (its
 //!    readings are no longer believed); anything else is learned as the new normal for
-//!    `relearn_s`. Then it watches again.
+//!    `relearn_s`. Then it watches again. A follow-on detection of the same physical
+//!    cause within `relearn_s` means the first fit was incomplete: every cause is
+//!    refitted, against the model before the change, on the windows of both detections,
+//!    and the alert is refined (its ranking replaced, its best re-adopted).
 
 // Channel × sub-window arrays read clearer with index loops.
 #![allow(clippy::needless_range_loop)]
@@ -77,6 +82,12 @@ pub const HEADING_RATIO_FACTOR: f64 = 2.5;
 
 /// Sub-windows per window.
 pub const SUB: usize = 3;
+
+/// A runner-up cause leaving less than this many times the best cause's unexplained
+/// residual is not told apart from it ([`Alert::undecided`]): with a few dozen residual
+/// sub-windows, a ratio of two between two one- or two-parameter fits is within what the
+/// windows' own noise gives (an F ratio at about 95 % for 30–40 degrees of freedom each).
+pub const UNDECIDED_RATIO: f64 = 2.0;
 
 /// Settings of the watch (defaults documented per field).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -171,13 +182,34 @@ pub struct Alert {
 }
 
 impl Alert {
-    /// The alert in words: "PORT THRUST −40 %" for a change, "MODEL MISMATCH (…)" for a
-    /// mismatch.
+    /// The runner-up cause when the windows do not tell it from the best: a different
+    /// cause that explains at least half of the residual and leaves less than
+    /// [`UNDECIDED_RATIO`] times the best's unexplained share. On windows flown at one
+    /// heading with steady commands, a side's thrust loss and a horizontal pull differ
+    /// only in the surge they take and the sway they add, neither of which the vehicle
+    /// measures; the watch names both rather than one with confidence.
+    pub fn undecided(&self) -> Option<&CauseScore> {
+        let best = self.causes.first()?;
+        let next = self.causes.get(1)?;
+        let left = |c: &CauseScore| (1.0 - c.score).max(0.0);
+        (next.cause != best.cause
+            && next.score >= 0.5
+            && left(next) < UNDECIDED_RATIO * left(best).max(1e-3))
+        .then_some(next)
+    }
+
+    /// The alert in words: "PORT THRUST −40 %" for a change ("PORT THRUST −40 % OR SNAG
+    /// 1 N TOWARDS 224°" when [`Alert::undecided`]), "MODEL MISMATCH (…)" for a mismatch.
     pub fn words(&self) -> String {
         let best = self.causes.first().map(|c| c.words.clone());
         match self.kind {
             AlertKind::Change => {
-                best.unwrap_or_else(|| format!("{} CHANGED", self.channel.to_uppercase()))
+                let best =
+                    best.unwrap_or_else(|| format!("{} CHANGED", self.channel.to_uppercase()));
+                match self.undecided() {
+                    Some(next) => format!("{best} OR {}", next.words),
+                    None => best,
+                }
             }
             AlertKind::Mismatch => format!(
                 "MODEL MISMATCH ON {}{}: TRY THE LAB",
@@ -247,10 +279,28 @@ struct Cusum {
 struct Pending {
     channel: usize,
     onset_s: f64,
+    /// The latest time the change can have begun: the first window that saw it ended
+    /// here (a CUSUM detection's onset is this less one sub-window); the onset itself
+    /// for a frozen or stepping reading.
+    latest_onset_s: f64,
     detected_s: f64,
     frozen: bool,
     /// The size of the sensor step that was detected (m or degrees), if that was it.
     step_size: Option<f64>,
+}
+
+/// A physical change the watch adopted into its model: what a follow-on detection of the
+/// same cause is refitted with.
+#[derive(Debug, Clone)]
+struct Adopted {
+    /// The watch's model before the change.
+    before: LabModel,
+    onset_s: f64,
+    latest_onset_s: f64,
+    /// The windows the change's causes were fitted on.
+    hops: Vec<Hop>,
+    /// The last of them, s.
+    last_hop_s: f64,
 }
 
 /// The monitor; see the module docs.
@@ -280,6 +330,8 @@ pub struct Watch {
     /// Channels taken out of the watch (a sensor fault), [`CHANNELS`] order.
     disabled: [bool; 4],
     steps: steps::Steps,
+    /// The last physical change adopted, while a follow-on may refine it.
+    adopted: Option<Adopted>,
 }
 
 /// A gap in the rows longer than this restarts the watch's history, s.
@@ -315,6 +367,7 @@ impl Watch {
             holdoff_until_s: None,
             disabled: [false; 4],
             steps: steps::Steps::default(),
+            adopted: None,
         }
     }
 
@@ -535,7 +588,7 @@ impl Watch {
             if let Some(start) = fired {
                 // The excursion's first hop saw the change in its last sub-window.
                 let onset = start - self.cfg.window_s / SUB as f64;
-                self.detect(i, onset, t, false);
+                self.detect_between(i, onset, start, t, false);
                 break;
             }
         }
@@ -567,9 +620,21 @@ impl Watch {
     }
 
     fn detect(&mut self, channel: usize, onset_s: f64, t: f64, frozen: bool) {
+        self.detect_between(channel, onset_s, onset_s, t, frozen);
+    }
+
+    fn detect_between(
+        &mut self,
+        channel: usize,
+        onset_s: f64,
+        latest_onset_s: f64,
+        t: f64,
+        frozen: bool,
+    ) {
         self.pending = Some(Pending {
             channel,
             onset_s,
+            latest_onset_s,
             detected_s: t,
             frozen,
             step_size: None,
@@ -595,8 +660,9 @@ impl Watch {
         start
     }
 
-    /// Takes a raised change into the watch (see the module docs, step 6).
-    fn adopt(&mut self, alert: &Alert, channel: usize, t: f64) {
+    /// Takes a raised change into the watch (see the module docs, step 6); whether a
+    /// physical cause became part of the model.
+    fn adopt(&mut self, alert: &Alert, channel: usize, t: f64) -> bool {
         self.cusum = [Cusum::default(); 4];
         self.frozen_hops = [0; 4];
         let best = alert.causes.first();
@@ -608,7 +674,7 @@ impl Watch {
             self.model = m;
             // Windows that straddle the change are not judged against the changed model.
             self.holdoff_until_s = Some(t + self.cfg.history_s);
-            return;
+            return true;
         }
         if best.is_some_and(|c| !c.is_physical() && c.score >= 0.5) {
             let sensor = match best.and_then(|c| c.fitted.as_ref()).map(|f| f.0) {
@@ -634,11 +700,12 @@ impl Watch {
                 }
             }
             self.holdoff_until_s = Some(t + self.cfg.history_s);
-            return;
+            return false;
         }
         // The new normal.
         self.learn.clear();
         self.learn_until_s = Some(t + self.cfg.relearn_s);
+        false
     }
 
     /// Fits the noise floors at the end of a baseline; the first one may say mismatch.
@@ -684,6 +751,7 @@ impl Watch {
             noise: &rest_noise,
             subtract_mu: false,
             onset_s: onset,
+            latest_onset_s: onset,
             frozen: None,
         });
         let explained = causes
@@ -741,9 +809,16 @@ impl Watch {
                 .cloned()
                 .collect()
         };
-        // Windows wholly after the onset carry the change alone; fall back to every
-        // window that saw it when there are too few.
-        let mut post = after(p.onset_s + self.cfg.window_s - 1e-9);
+        // Windows wholly after the change carry it alone: those that start after the
+        // latest onset the detection allows (the physical causes' change time is then
+        // fitted between the onset estimate and that, [`causes`]); with too few of
+        // those, the windows after the onset estimate, then every window that saw it.
+        let mut latest_onset_s = p.latest_onset_s;
+        let mut post = after(latest_onset_s + self.cfg.window_s - 1e-9);
+        if post.len() < 2 {
+            latest_onset_s = p.onset_s;
+            post = after(p.onset_s + self.cfg.window_s - 1e-9);
+        }
         if post.len() < 2 {
             post = after(p.onset_s);
         }
@@ -773,6 +848,7 @@ impl Watch {
             noise: &self.noise,
             subtract_mu: true,
             onset_s: p.onset_s,
+            latest_onset_s,
             frozen: p.frozen.then_some(p.channel),
         });
         // A step the readings made (see [`steps`]) is measured directly: its size
@@ -811,9 +887,15 @@ impl Watch {
             detected_s: self.rel(t),
             refined: 0,
         };
-        self.adopt(&alert, p.channel, t);
+        let before = self.model.clone();
+        let adopted_now = self.adopt(&alert, p.channel, t);
         // The same cause again within `relearn_s` of the last change: the first fit
-        // under-sized it (it sees only seconds of the change); fold the rest in.
+        // was incomplete (it sees only seconds of the change, at one heading and one set
+        // of commands). Every cause is fitted again, against the model before that
+        // change, on the windows of both detections: a cause the new windows contradict
+        // (a snag fixed to the seabed fitted where a thrust loss, fixed to the hull,
+        // turns with the vehicle) no longer explains them all, and the one that does is
+        // sized on all of them. Without that record, the two fits are folded.
         if let Some(last) = self.alerts.last_mut()
             && last.kind == AlertKind::Change
             && alert.detected_s - last.detected_s <= self.cfg.relearn_s
@@ -822,12 +904,56 @@ impl Watch {
             && a.is_physical()
             && b.score >= 0.5
         {
-            a.fold(b);
+            let refit = self.adopted.as_ref().and_then(|ad| {
+                let mut hops = ad.hops.clone();
+                hops.extend(
+                    post.iter()
+                        .filter(|h| h.t_s > ad.last_hop_s + 1e-9)
+                        .cloned(),
+                );
+                let causes = rank(&FitInput {
+                    model: &ad.before,
+                    rows: &rows,
+                    present: self.present,
+                    cfg: &self.cfg,
+                    hops: &hops,
+                    noise: &self.noise,
+                    subtract_mu: true,
+                    onset_s: ad.onset_s,
+                    latest_onset_s: ad.latest_onset_s,
+                    frozen: None,
+                });
+                let best = causes.first()?;
+                if !best.is_physical() || best.score < 0.5 {
+                    return None;
+                }
+                let (cause, theta) = best.fitted.as_ref()?;
+                let model = cause.apply(&ad.before, theta)?;
+                Some((causes, hops, model))
+            });
+            match refit {
+                Some((causes, hops, model)) => {
+                    last.causes = causes;
+                    self.model = model;
+                    if let Some(ad) = &mut self.adopted {
+                        ad.last_hop_s = hops.last().map_or(ad.last_hop_s, |h| h.t_s);
+                        ad.hops = hops;
+                    }
+                }
+                None => a.fold(b),
+            }
             last.size_noise = last.size_noise.max(alert.size_noise);
             last.detected_s = alert.detected_s;
             last.refined += 1;
             return Some(last.clone());
         }
+        self.adopted = adopted_now.then(|| Adopted {
+            before,
+            onset_s: p.onset_s,
+            latest_onset_s,
+            last_hop_s: post.last().map_or(t, |h| h.t_s),
+            hops: post,
+        });
         self.alerts.push(alert.clone());
         Some(alert)
     }
@@ -884,4 +1010,56 @@ pub fn watch_json(alerts: &[Alert], stats: &WatchStats, cfg: &WatchConfig) -> se
         "alerts": alerts,
         "judged_s": stats.judged_hops as f64 * cfg.hop_s,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn cause(id: &str, score: f64, words: &str) -> CauseScore {
+        CauseScore {
+            cause: id.into(),
+            size: 0.0,
+            unit: "-".into(),
+            score,
+            words: words.into(),
+            from_s: None,
+            fitted: None,
+        }
+    }
+
+    fn change(causes: Vec<CauseScore>) -> Alert {
+        Alert {
+            t_s: 0.0,
+            kind: AlertKind::Change,
+            channel: "heading".into(),
+            size_noise: 10.0,
+            causes,
+            detected_s: 6.0,
+            refined: 0,
+        }
+    }
+
+    #[test]
+    fn a_runner_up_the_windows_do_not_tell_apart_is_named_too() {
+        // The 40 % port loss under heading hold: 0.8 % left against 1.5 %.
+        let a = change(vec![
+            cause("thrust-loss:port", 0.992, "PORT THRUST −40 %"),
+            cause("snag", 0.985, "SNAG 0.6 N TOWARDS 221°"),
+        ]);
+        assert_eq!(a.words(), "PORT THRUST −40 % OR SNAG 0.6 N TOWARDS 221°");
+        // Told apart: the runner-up leaves more than twice as much.
+        let a = change(vec![
+            cause("thrust-loss:starboard", 0.998, "STARBOARD THRUST −40 %"),
+            cause("snag", 0.993, "SNAG 0.7 N TOWARDS 100°"),
+        ]);
+        assert_eq!(a.words(), "STARBOARD THRUST −40 %");
+        // A runner-up that explains less than half is never named.
+        let a = change(vec![
+            cause("compass", 0.6, "COMPASS OFF +25°"),
+            cause("drag", 0.45, "DRAG ×1.1"),
+        ]);
+        assert!(a.undecided().is_none());
+        assert_eq!(a.words(), "COMPASS OFF +25°");
+    }
 }
