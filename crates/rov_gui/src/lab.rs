@@ -10,6 +10,7 @@
 //! work within a simulation of each worker.
 
 use std::collections::BTreeMap;
+use std::ops::ControlFlow;
 use std::path::Path;
 use std::sync::Arc;
 use std::sync::mpsc::{Receiver, channel};
@@ -20,14 +21,17 @@ use rov_lab::diagnose::{DiagnoseOptions, Diagnosis, Status, diagnose};
 use rov_lab::evaluate::evaluate;
 use rov_lab::lab::fit_with_effects;
 use rov_lab::lm::LmOptions;
-use rov_lab::progress::Progress;
+use rov_lab::progress::{Loading, Progress};
 use rov_lab::{BaseKind, EffectId, LabError, LabModel, Run};
 
 use crate::FileError;
 use crate::app::StationApp;
 use crate::theme;
 
-/// One compared channel.
+/// One compared channel, in both of the lab's error views (as `lab compare` prints
+/// them): the free run (the model alone from the start, what the error fall plots) and
+/// multiple shooting (re-anchored on the measurement every
+/// [`rov_lab::calibrate::SHOOTING_WINDOW_S`], what calibration fits).
 #[derive(Debug, Clone)]
 pub struct ComparedChannel {
     /// Channel name ("depth", "heading", ...).
@@ -36,10 +40,39 @@ pub struct ComparedChannel {
     pub measured: Vec<f64>,
     /// The model's free-run prediction.
     pub predicted: Vec<f64>,
-    /// Fit %, if the channel is excited enough.
+    /// Free-run fit %, if the channel is excited enough.
     pub fit_pct: Option<f64>,
-    /// RMSE.
+    /// Free-run RMSE.
     pub rmse: f64,
+    /// The model's multiple-shooting prediction.
+    pub shooting: Vec<f64>,
+    /// Multiple-shooting fit %, if the channel is excited enough.
+    pub fit_pct_shooting: Option<f64>,
+    /// Multiple-shooting RMSE.
+    pub rmse_shooting: f64,
+    /// The channel's noise floor (pooled over the runs), in its unit.
+    pub noise: f64,
+}
+
+/// Which of the lab's two error views the tab plots.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum ErrorView {
+    /// The model alone from the start of each run.
+    #[default]
+    FreeRun,
+    /// Re-anchored on the measurement every 20 s.
+    Shooting,
+}
+
+impl ErrorView {
+    /// The view's name on the tab.
+    #[must_use]
+    pub fn label(self) -> &'static str {
+        match self {
+            Self::FreeRun => "free run",
+            Self::Shooting => "multiple shooting",
+        }
+    }
 }
 
 /// A model-versus-measured comparison.
@@ -135,6 +168,9 @@ pub struct LabState {
     pub cancelled: Option<String>,
     /// Last error.
     pub error: Option<String>,
+    /// The error view the plots show (free run by default; the error fall is always
+    /// the free run).
+    pub view: ErrorView,
     /// Worker threads of the lab's work (default: every core but one, which is left to
     /// the station and the GUI).
     pub threads: usize,
@@ -154,6 +190,7 @@ impl Default for LabState {
             busy: None,
             cancelled: None,
             error: None,
+            view: ErrorView::FreeRun,
             threads: rov_lab::par::default_threads().saturating_sub(1).max(1),
         }
     }
@@ -188,9 +225,21 @@ pub fn load_window(path: &Path, window: Option<(f64, f64)>) -> Result<LabData, F
         let session = rov_session::open(path)?;
         let nav = session.count(rov_session::Topic::Nav.name());
         let mut stream = rov_lab::stream::LogStream::new(&name, nav);
-        let done = rov_session::measurements_each(&session, &mut |_, row| stream.push(row))?;
+        // Reading is a stage of its own on the tab, and Cancel stops it within a few
+        // thousand rows.
+        let mut loading = Loading::start(&name, nav);
+        let done = rov_session::measurements_until(&session, &mut |_, row| {
+            stream.push(row);
+            if loading.row() {
+                ControlFlow::Continue(())
+            } else {
+                ControlFlow::Break(())
+            }
+        })?
+        .ok_or(LabError::Cancelled)?;
         (stream.finish_log(done.present), done.warnings)
     } else {
+        let _stage = Loading::start(&name, 0);
         let bytes = std::fs::read(path).map_err(|source| FileError::Read {
             path: path.to_path_buf(),
             source,
@@ -250,18 +299,23 @@ pub fn compare_on(model: &LabModel, runs: &[Run], scope: &str) -> Result<Compari
     let mut channels = Vec::new();
     for (key, ce) in &eval.channels {
         let measured = joined(&|_, run| run.y.get(key.0).and_then(Clone::clone));
-        let predicted = joined(&|i, _| {
-            eval.free_run
-                .get(i)
-                .and_then(|p| p.y.get(key.0))
-                .and_then(|v| v.as_deref().cloned())
-        });
+        let prediction = |view: &[rov_lab::sim::Prediction]| {
+            joined(&|i, _| {
+                view.get(i)
+                    .and_then(|p| p.y.get(key.0))
+                    .and_then(|v| v.as_deref().cloned())
+            })
+        };
         channels.push(ComparedChannel {
             name: key.name().to_string(),
             measured,
-            predicted,
+            predicted: prediction(&eval.free_run),
             fit_pct: ce.free_run.fit_pct,
             rmse: ce.free_run.rmse,
+            shooting: prediction(&eval.shooting),
+            fit_pct_shooting: ce.shooting.fit_pct,
+            rmse_shooting: ce.shooting.rmse,
+            noise: ce.noise,
         });
     }
     let mut t = Vec::new();
@@ -771,7 +825,7 @@ pub(crate) fn lab_tab(app: &mut StationApp, ui: &mut Ui) {
     crate::layout::scroll(app, ui, "lab_scroll", |app, ui| {
         use_for_autopilot(app, ui);
         crate::lab_video::panel(app, ui);
-        comparison_plots(ui, app.lab.comparison.as_ref(), view_h);
+        comparison_plots(ui, app.lab.comparison.as_ref(), &mut app.lab.view, view_h);
     });
 }
 
@@ -1009,7 +1063,12 @@ pub type Segments = Vec<Vec<[f64; 2]>>;
 /// everything else; the axis labels read as compass degrees. Segments break only at
 /// missing samples. `step` thins the samples to about two per pixel.
 #[must_use]
-pub fn channel_lines(t: &[f64], ch: &ComparedChannel, step: usize) -> (Segments, Segments) {
+pub fn channel_lines(
+    t: &[f64],
+    ch: &ComparedChannel,
+    view: ErrorView,
+    step: usize,
+) -> (Segments, Segments) {
     let wraps = ch.name == "heading";
     let reference = if wraps {
         let (s, c) = ch
@@ -1044,21 +1103,41 @@ pub fn channel_lines(t: &[f64], ch: &ComparedChannel, step: usize) -> (Segments,
         out.retain(|l| !l.is_empty());
         out
     };
-    (lines(&ch.measured), lines(&ch.predicted))
+    let model = match view {
+        ErrorView::FreeRun => &ch.predicted,
+        ErrorView::Shooting => &ch.shooting,
+    };
+    (lines(&ch.measured), lines(model))
 }
 
-/// The headline of a compared channel: fit and RMSE with units, or why there is no fit.
+/// The headline of a compared channel: the plotted view's fit and RMSE with units (or why
+/// there is no fit), then the other view's RMSE and the noise floor, so both views and
+/// the floor they are judged against are on one line.
 #[must_use]
-pub fn channel_title(ch: &ComparedChannel) -> String {
+pub fn channel_title(ch: &ComparedChannel, view: ErrorView) -> String {
     let unit = channel_unit(&ch.name);
-    let fit = ch.fit_pct.map_or_else(
+    let (fit, rmse, other, other_rmse) = match view {
+        ErrorView::FreeRun => (ch.fit_pct, ch.rmse, ErrorView::Shooting, ch.rmse_shooting),
+        ErrorView::Shooting => (
+            ch.fit_pct_shooting,
+            ch.rmse_shooting,
+            ErrorView::FreeRun,
+            ch.rmse,
+        ),
+    };
+    let fit = fit.map_or_else(
         || "fit n/a (not excited above 3x its noise)".to_string(),
         |f| format!("fit {f:.1} %"),
     );
-    format!("{}: {fit}, RMSE {:.3} {unit}", ch.name, ch.rmse)
+    format!(
+        "{}: {fit}, RMSE {rmse:.3} {unit} · {} RMSE {other_rmse:.3} {unit} · noise {:.3} {unit}",
+        ch.name,
+        other.label(),
+        ch.noise
+    )
 }
 
-fn comparison_plots(ui: &mut Ui, c: Option<&Comparison>, view_h: f32) {
+fn comparison_plots(ui: &mut Ui, c: Option<&Comparison>, view: &mut ErrorView, view_h: f32) {
     let Some(c) = c else {
         ui.label(
             RichText::new("Compare or diagnose to see the model against the measurements.")
@@ -1071,7 +1150,18 @@ fn comparison_plots(ui: &mut Ui, c: Option<&Comparison>, view_h: f32) {
     } else {
         format!("COMPARE: {}", c.scope)
     };
-    ui.label(RichText::new(format!("MODEL {} VS MEASURED, free run", c.model)).strong());
+    ui.horizontal(|ui| {
+        ui.label(RichText::new(format!("MODEL {} VS MEASURED,", c.model)).strong());
+        for v in [ErrorView::FreeRun, ErrorView::Shooting] {
+            ui.selectable_value(view, v, v.label())
+                .on_hover_text(match v {
+                    ErrorView::FreeRun => "the model alone from the start of each run",
+                    ErrorView::Shooting => {
+                        "the model re-anchored on the measurement every 20 s (what calibration fits)"
+                    }
+                });
+        }
+    });
     ui.label(RichText::new(which).small().strong().color(theme::AMBER));
     let shown: Vec<&ComparedChannel> = c
         .channels
@@ -1083,9 +1173,9 @@ fn comparison_plots(ui: &mut Ui, c: Option<&Comparison>, view_h: f32) {
     let width = ui.available_width().max(100.0) as usize;
     for ch in shown {
         let step = (c.t.len() / (2 * width)).max(1);
-        let (meas, pred) = channel_lines(&c.t, ch, step);
+        let (meas, pred) = channel_lines(&c.t, ch, *view, step);
         ui.horizontal(|ui| {
-            ui.label(RichText::new(channel_title(ch)).small().strong());
+            ui.label(RichText::new(channel_title(ch, *view)).small().strong());
             ui.add_space(12.0);
             crate::plots::legend_row(
                 ui,

@@ -41,6 +41,7 @@
 //! the velocity or position columns (NaN in the fields it does not give). Exporting the
 //! result gives back the measurement columns (times to the nanosecond).
 
+use std::ops::ControlFlow;
 use std::path::Path;
 
 use rov_types::measurement::{
@@ -687,7 +688,7 @@ pub fn measurements(session: &Session) -> Result<(MeasurementSeries, Vec<u64>, V
 }
 
 /// What [`measurements_each`] passed on.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, Default, PartialEq)]
 pub struct MeasurementsStreamed {
     /// Rows passed on.
     pub rows: usize,
@@ -704,18 +705,41 @@ pub fn measurements_each(
     session: &Session,
     each: &mut dyn FnMut(u64, &MeasurementRow),
 ) -> Result<MeasurementsStreamed> {
-    let mut sink = FnSink { each };
-    let done = build_rows(session, false, &mut sink)?;
-    Ok(MeasurementsStreamed {
+    let mut go_on = |t_ns: u64, row: &MeasurementRow| {
+        each(t_ns, row);
+        ControlFlow::Continue(())
+    };
+    // `go_on` never breaks, so the pass always ends with the whole result.
+    measurements_until(session, &mut go_on).map(|done| done.unwrap_or_default())
+}
+
+/// [`measurements_each`] that stops reading as soon as `each` breaks (a load the user
+/// cancelled): `Ok(None)` then, without reading the rest of the session.
+pub fn measurements_until(
+    session: &Session,
+    each: &mut dyn FnMut(u64, &MeasurementRow) -> ControlFlow<()>,
+) -> Result<Option<MeasurementsStreamed>> {
+    let mut sink = FnSink {
+        each,
+        stopped: false,
+    };
+    let done = build_rows(session, false, &mut sink);
+    if sink.stopped {
+        return Ok(None);
+    }
+    let done = done?;
+    Ok(Some(MeasurementsStreamed {
         rows: done.rows,
         present: present_of(&done),
         warnings: done.warnings,
-    })
+    }))
 }
 
-/// Rows handed to a closure.
+/// Rows handed to a closure until it breaks.
 struct FnSink<'a> {
-    each: &'a mut dyn FnMut(u64, &MeasurementRow),
+    each: &'a mut dyn FnMut(u64, &MeasurementRow) -> ControlFlow<()>,
+    /// The closure broke: the pass is ended by an error that is not one.
+    stopped: bool,
 }
 
 impl RowSink for FnSink<'_> {
@@ -723,7 +747,12 @@ impl RowSink for FnSink<'_> {
         Ok(())
     }
     fn row(&mut self, t_ns: u64, row: &MeasurementRow, _: &str) -> Result<()> {
-        (self.each)(t_ns, row);
+        if (self.each)(t_ns, row).is_break() {
+            self.stopped = true;
+            // Ends `build_rows` at once; `measurements_until` reports the stop, never
+            // this error.
+            return Err(SessionError::Unusable("stopped by the reader".into()));
+        }
         Ok(())
     }
 }

@@ -71,7 +71,7 @@ pub mod writer;
 pub use chunk::MAX_CHUNK_BYTES;
 pub use csv::{
     CsvExport, CsvSummary, ImportReport, MeasurementsStreamed, export_csv, export_csv_to,
-    import_csv, import_series, measurements, measurements_each,
+    import_csv, import_series, measurements, measurements_each, measurements_until,
 };
 pub use error::{Result, SessionError};
 pub use message::{Damage, Decoded, Message, MessageRef, Payload, TopicSummary};

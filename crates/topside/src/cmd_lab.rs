@@ -17,6 +17,7 @@
 //! stdout otherwise.
 
 use std::fs;
+use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
@@ -30,6 +31,7 @@ use rov_lab::lab::{
 use rov_lab::model::{BaseKind, LabModel};
 use rov_lab::persist::save_extended_model;
 use rov_lab::plots::{comparison_png, error_fall_png, failure_pngs, residual_png};
+use rov_lab::progress::Loading;
 use rov_lab::{Run, parse_effect_list};
 use rov_types::model_id::ModelId;
 
@@ -255,6 +257,8 @@ pub fn load_log_with(path: &Path, map: Option<&rov_logs::LogMap>) -> anyhow::Res
         .map(|n| n.to_string_lossy().to_string())
         .unwrap_or_else(|| path.display().to_string());
     if let Some(map) = map {
+        // Not counted: the whole file is read and parsed at once.
+        let _stage = Loading::start(&label, 0);
         let bytes = fs::read(path).with_context(|| format!("reading {}", path.display()))?;
         return rov_lab::mapped::mapped_runs(&bytes, map, &label)
             .with_context(|| format!("reading {} through the map {}", path.display(), map.label));
@@ -264,13 +268,23 @@ pub fn load_log_with(path: &Path, map: Option<&rov_logs::LogMap>) -> anyhow::Res
         .is_some_and(|e| e.eq_ignore_ascii_case("mcap"))
     {
         let (session, mut stream) = open_session_stream(path, &label)?;
-        let done = rov_session::measurements_each(&session, &mut |_, row| stream.push(row))
-            .with_context(|| format!("reading measurements from {}", path.display()))?;
+        let mut loading = Loading::start(&label, session.count(rov_session::Topic::Nav.name()));
+        let done = rov_session::measurements_until(&session, &mut |_, row| {
+            stream.push(row);
+            if loading.row() {
+                ControlFlow::Continue(())
+            } else {
+                ControlFlow::Break(())
+            }
+        })
+        .with_context(|| format!("reading measurements from {}", path.display()))?
+        .ok_or(rov_lab::LabError::Cancelled)?;
         for w in done.warnings {
             eprintln!("warning: {label}: {w}");
         }
         return Ok(stream.finish(done.present)?);
     }
+    let _stage = Loading::start(&label, 0);
     let bytes = fs::read(path).with_context(|| format!("reading {}", path.display()))?;
     Ok(rov_lab::loader::read_bytes(&bytes, &label)?.runs()?)
 }
@@ -298,12 +312,16 @@ pub fn open_session_stream(
 }
 
 /// Every log of a list, through the map when one is given.
+/// Reading is a stage of the lab's progress ("loading dive.mcap 120000/864000 rows" on a
+/// terminal's bar).
 pub fn load_runs(paths: &[PathBuf], map: Option<&rov_logs::LogMap>) -> anyhow::Result<Vec<Run>> {
-    let mut out = Vec::new();
-    for p in paths {
-        out.extend(load_log_with(p, map)?);
-    }
-    Ok(out)
+    crate::lab_progress::with_progress(|| {
+        let mut out = Vec::new();
+        for p in paths {
+            out.extend(load_log_with(p, map)?);
+        }
+        Ok(out)
+    })
 }
 
 fn write_pngs(dir: &Path, pngs: Vec<(String, Vec<u8>)>) -> anyhow::Result<()> {

@@ -27,9 +27,9 @@ impl WorkArgs {
 }
 
 /// Runs lab work with a progress bar on stderr when stderr is a terminal.
-pub fn with_progress<T>(work: impl FnOnce() -> Result<T, LabError>) -> Result<T, LabError> {
+pub fn with_progress<T, E: From<LabError>>(work: impl FnOnce() -> Result<T, E>) -> Result<T, E> {
     if !std::io::stderr().is_terminal() {
-        return Progress::new().run(work);
+        return Progress::new().run_with(work);
     }
     let bar = ProgressBar::with_draw_target(None, ProgressDrawTarget::stderr());
     // The stage's words and count in the message, so that no redraw shows the count of one
@@ -54,7 +54,7 @@ pub fn with_progress<T>(work: impl FnOnce() -> Result<T, LabError>) -> Result<T,
         }
         b.set_message(s.to_string());
     });
-    let out = progress.run(work);
+    let out = progress.run_with(work);
     bar.finish_and_clear();
     out
 }

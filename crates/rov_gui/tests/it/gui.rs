@@ -337,7 +337,8 @@ fn lab_tab_runs_a_diagnosis_off_the_gui_thread() {
     );
     // Issue 15 #5: the headline figures and the error fall agree: the last step is the
     // RMSE of the comparison shown (same view, same held-out data).
-    let c = lab.comparison.as_ref().unwrap();
+    let c = lab.comparison.clone().unwrap();
+    let c = &c;
     assert_eq!(c.scope, rov_gui::lab::HELD_OUT);
     assert_eq!(lab.fall[n_fall].1, c.rmse(), "error fall vs headline");
     // Units on the headline figures; heading drawn within one turn.
@@ -355,7 +356,8 @@ fn lab_tab_runs_a_diagnosis_off_the_gui_thread() {
         "{titles:?}"
     );
     let heading = c.channels.iter().find(|ch| ch.name == "heading").unwrap();
-    let (meas, pred) = rov_gui::lab::channel_lines(&c.t, heading, 1);
+    let (meas, pred) =
+        rov_gui::lab::channel_lines(&c.t, heading, rov_gui::lab::ErrorView::FreeRun, 1);
     // Issue 25 item 8: unwrapped, so no segment jumps across the axis at north.
     for seg in meas.iter().chain(&pred) {
         for w in seg.windows(2) {
@@ -364,6 +366,39 @@ fn lab_tab_runs_a_diagnosis_off_the_gui_thread() {
     }
     assert_eq!(meas.len(), 1, "one measured heading line");
     r.snapshot_masked("lab_effect_added", data_field(&r));
+    // Issue 26: both error views, one summary line per channel. The free run is shown
+    // first with the shooting RMSE and the noise floor beside it; the other view plots
+    // the multiple-shooting prediction (re-anchored every 20 s: closer to the data).
+    let depth = c.channels.iter().find(|ch| ch.name == "depth").unwrap();
+    let free_title = rov_gui::lab::channel_title(depth, rov_gui::lab::ErrorView::FreeRun);
+    assert!(
+        r.labels_containing("RMSE").contains(&free_title),
+        "{free_title}"
+    );
+    assert!(
+        free_title.contains("multiple shooting RMSE"),
+        "{free_title}"
+    );
+    assert!(depth.rmse_shooting < depth.rmse, "{free_title}");
+    assert_eq!(depth.shooting.len(), depth.predicted.len());
+    r.click("multiple shooting");
+    r.run(FRAME_S);
+    assert_eq!(
+        r.harness.state().lab().view,
+        rov_gui::lab::ErrorView::Shooting
+    );
+    let shot_title = rov_gui::lab::channel_title(depth, rov_gui::lab::ErrorView::Shooting);
+    assert!(shot_title.contains("free run RMSE"), "{shot_title}");
+    assert!(
+        r.labels_containing("RMSE").contains(&shot_title),
+        "{shot_title}"
+    );
+    let (_, shot) = rov_gui::lab::channel_lines(&c.t, depth, rov_gui::lab::ErrorView::Shooting, 1);
+    let (_, free) = rov_gui::lab::channel_lines(&c.t, depth, rov_gui::lab::ErrorView::FreeRun, 1);
+    assert_ne!(shot, free, "the shooting view plots its own prediction");
+    r.snapshot_masked("lab_shooting_view", data_field(&r));
+    r.click("free run");
+    r.run(FRAME_S);
 
     // An added effect can be removed: the refit goes back to the calibrated base.
     r.click("Remove");
@@ -451,7 +486,8 @@ fn lab_tab_splits_a_log_at_a_gap_as_the_cli_does() {
         .as_ref()
         .unwrap_or_else(|| panic!("{:?}", lab.error));
     let depth = c.channels.iter().find(|ch| ch.name == "depth").unwrap();
-    let (meas, pred) = rov_gui::lab::channel_lines(&c.t, depth, 1);
+    let (meas, pred) =
+        rov_gui::lab::channel_lines(&c.t, depth, rov_gui::lab::ErrorView::FreeRun, 1);
     assert_eq!((meas.len(), pred.len()), (2, 2), "one line per run");
     r.snapshot_masked("lab_gap_split", data_field(&r));
 }
@@ -503,6 +539,84 @@ fn wait_lab(r: &mut Rig, timeout_s: f64) -> usize {
 
 /// Lab work shows the stage the lab reports, with a bar when it is counted, and Cancel
 /// stops it: the worker's result is dropped and the tab says nothing changed.
+/// Loading a session is a stage of the lab's progress ("loading NAME n/N rows"), and a
+/// cancelled load stops reading within one report's rows instead of reading the whole
+/// session (issue 26: loading as a progress stage, Cancel within a second).
+#[test]
+fn loading_a_session_is_a_counted_stage_and_cancel_stops_the_read() {
+    use rov_lab::progress::{Loading, Progress};
+    use rov_session::{NavRecord, SessionInfo, SessionWriter, ThrustRecord};
+    let path = tmp("lab_loading.mcap");
+    let info = SessionInfo {
+        vehicle: "sim".into(),
+        software_version: "topside test".into(),
+        started_unix_s: 1_750_000_000.0,
+        config_toml: String::new(),
+    };
+    let rows = 3 * Loading::REPORT_ROWS + 100;
+    let mut w = SessionWriter::create(&path, &info, 0).unwrap();
+    for k in 0..rows as u64 {
+        let t_ns = k * 100_000_000;
+        let x = (k as f64 * 0.01).sin();
+        let thrust = ThrustRecord {
+            port_pct: 30.0 * x,
+            starboard_pct: -30.0 * x,
+            vertical_pct: 20.0 * x,
+            ..ThrustRecord::default()
+        };
+        w.write(t_ns, &thrust).unwrap();
+        let nav = NavRecord {
+            depth_m: 3.0 + x,
+            heading_deg: 100.0 + 10.0 * x,
+            ..NavRecord::default()
+        };
+        w.write(t_ns + 1_000_000, &nav).unwrap();
+    }
+    w.finish().unwrap();
+    let seen = std::sync::Arc::new(std::sync::Mutex::new(Vec::<String>::new()));
+    let s2 = seen.clone();
+    let p = Progress::with_sink(move |s| s2.lock().unwrap().push(s.to_string()));
+    let data = p.run_with(|| rov_gui::lab::load(&path)).unwrap();
+    assert!(data.full.iter().map(|r| r.len()).sum::<usize>() > rows - 10);
+    let seen = seen.lock().unwrap().clone();
+    let want = format!("loading lab_loading.mcap 0/{rows} rows");
+    assert_eq!(seen.first(), Some(&want), "{seen:?}");
+    for k in 1..=3 {
+        let want = format!(
+            "loading lab_loading.mcap {}/{rows} rows",
+            k * Loading::REPORT_ROWS
+        );
+        assert!(seen.contains(&want), "{want} not in {seen:?}");
+    }
+    // Cancelled while reading (at the first report after the start, from the sink, so
+    // the test does not race the reader): the read stops there and the load says so.
+    let read = std::sync::Arc::new(std::sync::atomic::AtomicUsize::new(0));
+    let r2 = read.clone();
+    let me = std::sync::Arc::new(std::sync::OnceLock::<Progress>::new());
+    let me2 = me.clone();
+    let p = Progress::with_sink(move |s| {
+        r2.store(s.done, std::sync::atomic::Ordering::Relaxed);
+        if s.done > 0
+            && let Some(p) = me2.get()
+        {
+            p.cancel();
+        }
+    });
+    me.set(p.clone()).unwrap();
+    let out = p.run_with(|| rov_gui::lab::load(&path));
+    assert!(
+        matches!(&out, Err(rov_gui::FileError::Lab(e)) if **e == rov_lab::LabError::Cancelled),
+        "{:?}",
+        out.map(|d| d.name)
+    );
+    let stopped_at = read.load(std::sync::atomic::Ordering::Relaxed);
+    assert_eq!(
+        stopped_at,
+        Loading::REPORT_ROWS,
+        "the read went on after Cancel ({stopped_at} of {rows} rows reported)"
+    );
+}
+
 #[test]
 fn lab_work_shows_its_stage_and_cancel_stops_it() {
     use rov_gui::lab::LabResult;

@@ -3,9 +3,10 @@
 use crate::common::{info, record};
 use rov_session::{
     NavRecord, SessionError, SessionWriter, ThrustRecord, WriterOptions, export_csv, import_csv,
-    open,
+    measurements_each, measurements_until, open,
 };
 use rov_types::measurement::{MeasurementSeries, OptionalChannel};
+use std::ops::ControlFlow;
 
 const MS: u64 = 1_000_000;
 
@@ -104,6 +105,39 @@ fn thrust_at(w: &mut SessionWriter, t: u64, port: f64) {
         ..ThrustRecord::default()
     };
     w.write(t, &c).unwrap();
+}
+
+/// A reader that breaks (a cancelled load) ends the pass there: no row after the break
+/// is read, and the result says the pass did not finish; one that never breaks gets
+/// every row and the same result as `measurements_each`.
+#[test]
+fn a_streamed_read_stops_when_the_reader_breaks() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("dive.mcap");
+    record(&path, 250, WriterOptions::default());
+    let s = open(&path).unwrap();
+    let mut seen = 0usize;
+    let done = measurements_until(&s, &mut |_, _| {
+        seen += 1;
+        if seen == 40 {
+            ControlFlow::Break(())
+        } else {
+            ControlFlow::Continue(())
+        }
+    })
+    .unwrap();
+    assert_eq!(done, None);
+    assert_eq!(seen, 40, "no row is handed on after the break");
+    let mut all = 0usize;
+    let whole = measurements_until(&s, &mut |_, _| {
+        all += 1;
+        ControlFlow::Continue(())
+    })
+    .unwrap()
+    .unwrap();
+    assert_eq!((all, whole.rows), (250, 250));
+    let each = measurements_each(&s, &mut |_, _| {}).unwrap();
+    assert_eq!(each, whole);
 }
 
 /// Row k's command is the last one sent before t_{k+1}.
