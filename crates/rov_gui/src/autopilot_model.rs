@@ -63,14 +63,25 @@ impl ModelsFolder {
 /// # Errors
 /// The file cannot be read, is not a model, or has no valid heave/yaw plant.
 pub fn load_file(path: &Path) -> Result<AutopilotModel, FileError> {
-    let label = path.display().to_string();
+    let model = read_model_file(path)?;
+    Ok(AutopilotModel::from_vehicle_model(
+        &path.display().to_string(),
+        &model,
+    )?)
+}
+
+/// A model file (a vehicle definition, a base-model file or a saved extended model)
+/// through the lab's one loader, as every `--model FILE.toml` reads it.
+///
+/// # Errors
+/// The file cannot be read or is not a model (the error names file, key, value).
+pub fn read_model_file(path: &Path) -> Result<rov_lab::LabModel, FileError> {
     let text = std::fs::read_to_string(path).map_err(|source| FileError::Read {
         path: path.to_path_buf(),
         source,
     })?;
     let id = rov_types::ModelId::File(path.to_path_buf());
-    let model = rov_lab::load_model(&id, Some(&text))?;
-    Ok(AutopilotModel::from_vehicle_model(&label, &model)?)
+    Ok(rov_lab::load_model(&id, Some(&text))?)
 }
 
 /// The station's answer to the last model change.

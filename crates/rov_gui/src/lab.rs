@@ -10,7 +10,6 @@
 //! work within a simulation of each worker.
 
 use std::collections::BTreeMap;
-use std::ops::ControlFlow;
 use std::path::Path;
 use std::sync::Arc;
 use std::sync::mpsc::{Receiver, channel};
@@ -26,6 +25,8 @@ use rov_lab::{BaseKind, EffectId, LabError, LabModel, Run};
 
 use crate::FileError;
 use crate::app::StationApp;
+pub use crate::lab_source::LabBase;
+use crate::lab_source::typed_path;
 use crate::theme;
 
 /// One compared channel, in both of the lab's error views (as `lab compare` prints
@@ -168,6 +169,12 @@ pub struct LabState {
     pub cancelled: Option<String>,
     /// Last error.
     pub error: Option<String>,
+    /// The log map the next Load reads the data through (empty: none).
+    pub map_path: String,
+    /// A model file in place of the built-in base `kind` (empty: none).
+    pub model_path: String,
+    /// The base the current `model` was fitted from.
+    model_base: Option<LabBase>,
     /// The error view the plots show (free run by default; the error fall is always
     /// the free run).
     pub view: ErrorView,
@@ -191,6 +198,9 @@ impl Default for LabState {
             cancelled: None,
             error: None,
             view: ErrorView::FreeRun,
+            map_path: String::new(),
+            model_path: String::new(),
+            model_base: None,
             threads: rov_lab::par::default_threads().saturating_sub(1).max(1),
         }
     }
@@ -210,6 +220,21 @@ pub fn load(path: &Path) -> Result<LabData, FileError> {
 /// # Errors
 /// [`FileError`] when the file cannot be read or the window holds too little data.
 pub fn load_window(path: &Path, window: Option<(f64, f64)>) -> Result<LabData, FileError> {
+    load_log(path, None, window)
+}
+
+/// [`load_window`], or through the log map `map` (a TOML file) any log the map describes
+/// (CSV/TSV, ArduSub DataFlash, tlog, ROS bags, MCAP with CDR messages), read by the lab's
+/// one loader as `topside lab --map MAP.toml` reads it (`rov_lab::loader`).
+///
+/// # Errors
+/// [`FileError`] when the log or the map cannot be read, the map does not parse or the
+/// log does not read through it, or the window holds too little data.
+pub fn load_log(
+    path: &Path,
+    map: Option<&Path>,
+    window: Option<(f64, f64)>,
+) -> Result<LabData, FileError> {
     let name = path
         .file_name()
         .map_or_else(|| "data".to_string(), |n| n.to_string_lossy().into_owned());
@@ -220,7 +245,21 @@ pub fn load_window(path: &Path, window: Option<(f64, f64)>) -> Result<LabData, F
     let is_mcap = path
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("mcap"));
-    let (log, mut warnings) = if is_mcap {
+    let read = |p: &Path| {
+        std::fs::read(p).map_err(|source| FileError::Read {
+            path: p.to_path_buf(),
+            source,
+        })
+    };
+    let (log, mut warnings) = if let Some(map_path) = map {
+        // Not counted: the whole file is read and parsed at once.
+        let _stage = Loading::start(&name, 0);
+        let map_text = String::from_utf8_lossy(&read(map_path)?).into_owned();
+        let bytes = read(path)?;
+        let map_label = map_path.display().to_string();
+        let log = rov_lab::loader::read_with_map_text(&bytes, &map_text, &map_label, &name)?;
+        (log, Vec::new())
+    } else if is_mcap {
         // Streamed, and decimated when long (rov_lab::stream), as `topside lab` reads it.
         let session = rov_session::open(path)?;
         let nav = session.count(rov_session::Topic::Nav.name());
@@ -230,20 +269,13 @@ pub fn load_window(path: &Path, window: Option<(f64, f64)>) -> Result<LabData, F
         let mut loading = Loading::start(&name, nav);
         let done = rov_session::measurements_until(&session, &mut |_, row| {
             stream.push(row);
-            if loading.row() {
-                ControlFlow::Continue(())
-            } else {
-                ControlFlow::Break(())
-            }
+            loading.row()
         })?
         .ok_or(LabError::Cancelled)?;
         (stream.finish_log(done.present), done.warnings)
     } else {
         let _stage = Loading::start(&name, 0);
-        let bytes = std::fs::read(path).map_err(|source| FileError::Read {
-            path: path.to_path_buf(),
-            source,
-        })?;
+        let bytes = read(path)?;
         let log = rov_lab::loader::read_bytes(&bytes, &name)?;
         (log, Vec::new())
     };
@@ -390,6 +422,7 @@ impl LabState {
                 // The diagnosis's own greedy additions are in its findings.
                 self.fall = vec![("calibrated base".to_string(), c.rmse())];
                 self.model = Some(d.calibrated.clone());
+                self.model_base = Some(self.base());
                 self.added.clear();
                 self.diagnosis = Some(d);
                 self.comparison = Some(c);
@@ -403,6 +436,13 @@ impl LabState {
             LabResult::Failed(e) => self.error = Some(e),
             LabResult::Cancelled(what) => self.cancelled = Some(what),
         }
+    }
+
+    /// The model the lab starts from: the model file when one is named, else the
+    /// built-in base.
+    #[must_use]
+    pub fn base(&self) -> LabBase {
+        typed_path(&self.model_path).map_or(LabBase::Builtin(self.kind), LabBase::File)
     }
 
     /// Asks the running work to stop (its result is dropped; nothing changes).
@@ -462,9 +502,12 @@ impl LabState {
     /// Loads a window of a file (s from its start) in the background.
     pub fn start_load_window(&mut self, path: &Path, window: Option<(f64, f64)>) {
         let p = path.to_path_buf();
-        self.spawn("loading", move || match load_window(&p, window) {
-            Ok(d) => LabResult::Loaded(d),
-            Err(e) => LabResult::Failed(e.to_string()),
+        let map = typed_path(&self.map_path);
+        self.spawn("loading", move || {
+            match load_log(&p, map.as_deref(), window) {
+                Ok(d) => LabResult::Loaded(d),
+                Err(e) => LabResult::Failed(e.to_string()),
+            }
         });
     }
 
@@ -475,8 +518,11 @@ impl LabState {
             return;
         };
         let run = Arc::clone(&d.full);
-        let kind = self.kind;
-        let current = self.model.clone().filter(|m| m.kind() == kind);
+        let base = self.base();
+        let current = self
+            .model
+            .clone()
+            .filter(|_| self.model_base.as_ref() == Some(&base));
         // Say which numbers these are: Diagnose scores a calibrated model on the held-out
         // third, Compare the model as it is on the whole run (issue 25 item 14).
         let scope = if current.is_some() {
@@ -485,7 +531,7 @@ impl LabState {
             format!("{WHOLE_RUN}, shipped parameters (not calibrated)")
         };
         self.spawn("comparing", move || {
-            let m = match current.map_or_else(|| LabModel::default_base(kind), Ok) {
+            let m = match current.map_or_else(|| base.load(), Ok) {
                 Ok(m) => m,
                 Err(e) => return LabResult::Failed(e.to_string()),
             };
@@ -503,10 +549,10 @@ impl LabState {
             return;
         };
         let (train, val) = (Arc::clone(&d.train), Arc::clone(&d.val));
-        let kind = self.kind;
+        let choice = self.base();
         let threads = self.threads.max(1);
         self.spawn("diagnosing", move || {
-            let base = match LabModel::default_base(kind) {
+            let base = match choice.load() {
                 Ok(m) => m,
                 Err(e) => return LabResult::Failed(e.to_string()),
             };
@@ -514,7 +560,7 @@ impl LabState {
                 threads,
                 ..DiagnoseOptions::default()
             };
-            let diag = match diagnose(&base, kind.name(), &train, &val, &opts) {
+            let diag = match diagnose(&base, &choice.label(), &train, &val, &opts) {
                 Ok(d) => d,
                 Err(e) => return LabResult::Failed(e.to_string()),
             };
@@ -658,13 +704,20 @@ pub(crate) fn lab_tab(app: &mut StationApp, ui: &mut Ui) {
         }
         ui.separator();
         let before = lab.kind;
-        egui::ComboBox::new("lab_model", "model")
-            .selected_text(lab.kind.name())
-            .show_ui(ui, |ui| {
-                for k in [BaseKind::Model1, BaseKind::Model2, BaseKind::Model3] {
-                    ui.selectable_value(&mut lab.kind, k, k.name());
-                }
-            });
+        let builtin = typed_path(&lab.model_path).is_none();
+        ui.add_enabled_ui(builtin, |ui| {
+            egui::ComboBox::new("lab_model", "model")
+                .selected_text(if builtin {
+                    lab.kind.name().to_string()
+                } else {
+                    "file".to_string()
+                })
+                .show_ui(ui, |ui| {
+                    for k in [BaseKind::Model1, BaseKind::Model2, BaseKind::Model3] {
+                        ui.selectable_value(&mut lab.kind, k, k.name());
+                    }
+                });
+        });
         if lab.kind != before {
             lab.model = None;
         }
@@ -682,6 +735,8 @@ pub(crate) fn lab_tab(app: &mut StationApp, ui: &mut Ui) {
             lab.start_diagnose();
         }
     });
+    crate::lab_source::source_row(app, ui);
+    let lab = &mut app.lab;
     // The running work on a line of its own (the controls' row is full).
     let mut cancel = false;
     if let Some(b) = &lab.busy {

@@ -25,6 +25,7 @@ mod foxglove_live;
 mod help;
 pub mod instruments;
 pub mod lab;
+pub mod lab_source;
 mod lab_video;
 pub mod layout;
 mod pad_page;

@@ -245,6 +245,27 @@ fn session_list(app: &mut StationApp, ui: &mut Ui) {
         if ui.button("Refresh").clicked() {
             app.browser.refresh(&dir);
         }
+        if ui
+            .add_enabled(!app.browser.importing(), egui::Button::new("Import a log…"))
+            .on_hover_text(
+                "Another vehicle's log as a session in this folder: pick the log, then its \
+                 log map (cancel for a measurement CSV)",
+            )
+            .clicked()
+            && let Some(log) = app.backend.pick_file(
+                "Import a log (DataFlash .BIN, tlog, ROS bag, MCAP, CSV)",
+                &["bin", "BIN", "tlog", "bag", "mcap", "csv", "tsv", "txt"],
+            )
+        {
+            let map = app
+                .backend
+                .pick_file("Its log map (cancel: none)", &["toml"]);
+            app.browser.start_import(log, map, &dir);
+        }
+        if app.browser.importing() {
+            ui.spinner();
+            ui.label(RichText::new("importing…").color(theme::AMBER));
+        }
         if app.browser.busy() {
             ui.spinner();
         }
@@ -253,6 +274,14 @@ fn session_list(app: &mut StationApp, ui: &mut Ui) {
     if let Some(e) = &app.browser.error {
         ui.label(RichText::new(e).color(theme::AMBER));
     }
+    // The import's line is always there (empty before any), so that the list does not
+    // move under the pointer when an import ends.
+    let (color, note) = match &app.browser.import_note {
+        Some((true, n)) => (theme::DIM, n.as_str()),
+        Some((false, n)) => (theme::AMBER, n.as_str()),
+        None => (theme::DIM, " "),
+    };
+    ui.label(RichText::new(note).small().color(color));
     let entries = app.browser.entries.clone();
     if entries.is_empty() && !app.browser.busy() {
         ui.label(RichText::new("no recordings yet").color(theme::DIM));

@@ -121,7 +121,14 @@ pub struct SessionBrowser {
     cache: HashMap<Key, SessionSummary>,
     /// The last scan's error.
     pub error: Option<String>,
+    /// An import running (see [`SessionBrowser::start_import`]).
+    importing: Option<Receiver<ImportDone>>,
+    /// The last import's outcome in words, and whether it worked.
+    pub import_note: Option<(bool, String)>,
 }
+
+/// A finished import: the session written and the import's report, or why not.
+type ImportDone = Result<(PathBuf, rov_session::ImportReport), rov_station::import::ImportError>;
 
 fn unix(t: SystemTime) -> f64 {
     t.duration_since(SystemTime::UNIX_EPOCH)
@@ -187,8 +194,90 @@ impl SessionBrowser {
         }
     }
 
-    /// Takes a finished scan.
+    /// Whether an import is running.
+    #[must_use]
+    pub fn importing(&self) -> bool {
+        self.importing.is_some()
+    }
+
+    /// Imports another vehicle's log (through `map` when given: DataFlash, tlog, ROS bag,
+    /// a CSV with its own columns; a measurement CSV or a shipped map's CSV without) as a
+    /// session in `dir` named after the log, on a worker
+    /// ([`rov_station::import::import_log`], what `topside import` does); the list is read
+    /// again when it is done.
+    pub fn start_import(&mut self, log: PathBuf, map: Option<PathBuf>, dir: &Path) {
+        let dir = dir.to_path_buf();
+        let (tx, rx) = channel();
+        let spawned = std::thread::Builder::new()
+            .name("session-import".into())
+            .spawn(move || {
+                let made = std::fs::create_dir_all(&dir).map_err(|source| {
+                    rov_station::import::ImportError::Read {
+                        path: dir.clone(),
+                        source,
+                    }
+                });
+                let out = rov_station::import::session_path_for(&dir, &log);
+                let done = made
+                    .and_then(|()| rov_station::import::import_log(&log, map.as_deref(), &out))
+                    .map(|r| (out, r));
+                // The browser has gone (app closing) if this fails: nobody waits.
+                let _ = tx.send(done);
+            });
+        match spawned {
+            Ok(_) => {
+                self.importing = Some(rx);
+                self.import_note = None;
+            }
+            Err(e) => self.import_note = Some((false, format!("cannot start the import: {e}"))),
+        }
+    }
+
+    /// Takes a finished import (its note; the folder is listed again).
+    fn poll_import(&mut self) {
+        let Some(rx) = &self.importing else { return };
+        let done = match rx.try_recv() {
+            Ok(d) => d,
+            Err(std::sync::mpsc::TryRecvError::Empty) => return,
+            Err(std::sync::mpsc::TryRecvError::Disconnected) => {
+                self.importing = None;
+                self.import_note = Some((false, "the import stopped".into()));
+                return;
+            }
+        };
+        self.importing = None;
+        self.import_note = Some(match done {
+            Ok((out, r)) => {
+                let name = out
+                    .file_name()
+                    .map_or_else(|| out.display().to_string(), |n| n.to_string_lossy().into());
+                let mut text = format!("imported as {name}: {} rows", r.rows);
+                if let Some(w) = r.warnings.first() {
+                    text.push_str(&format!(" ({w}"));
+                    if r.warnings.len() > 1 {
+                        text.push_str(&format!("; {} more warnings", r.warnings.len() - 1));
+                    }
+                    text.push(')');
+                }
+                (true, text)
+            }
+            Err(e) => (false, format!("import failed: {e}")),
+        });
+        let dir = self.dir.clone();
+        self.refresh(&dir);
+    }
+
+    /// Waits for a running import (tests).
+    pub fn wait_import(&mut self) {
+        while self.importing.is_some() {
+            self.poll_import();
+            std::thread::sleep(std::time::Duration::from_millis(5));
+        }
+    }
+
+    /// Takes a finished scan or import.
     pub fn poll(&mut self) {
+        self.poll_import();
         if let Some(rx) = &self.pending
             && let Ok((entries, cache)) = rx.try_recv()
         {

@@ -306,6 +306,21 @@ pub fn read_mapped(bytes: &[u8], map: &LogMap, label: &str) -> Result<LoadedLog,
     })
 }
 
+/// [`read_mapped`] with the log map given as its TOML text (`map_label`: its file, named
+/// in its errors), as `--map MAP.toml` reads a log.
+///
+/// # Errors
+/// The map does not parse, or the log does not read through it.
+pub fn read_with_map_text(
+    bytes: &[u8],
+    map_text: &str,
+    map_label: &str,
+    label: &str,
+) -> Result<LoadedLog, LabError> {
+    let map = LogMap::parse(map_text, map_label)?;
+    read_mapped(bytes, &map, label)
+}
+
 /// A log of any supported text format: a CSV with the columns of a shipped log map
 /// ([`crate::ingest::SHIPPED_MAPS`]) through that map, else a measurement CSV.
 pub fn read_text(text: &str, label: &str) -> Result<LoadedLog, LabError> {
@@ -315,21 +330,26 @@ pub fn read_text(text: &str, label: &str) -> Result<LoadedLog, LabError> {
     read_measurement_csv(text, label)
 }
 
+/// The name of the log format of `bytes` when it is one that can only be read through a
+/// log map (DataFlash, tlog, ROS bags, MCAP with CDR messages); `None` for text.
+pub fn format_needing_map(bytes: &[u8]) -> Option<&'static str> {
+    match rov_logs::Format::detect(bytes) {
+        Some(rov_logs::Format::Csv) | None => None,
+        Some(f) => Some(f.name()),
+    }
+}
+
 /// A log file's bytes (not a session): text through [`read_text`]; a binary log format
 /// that needs a log map is refused, naming the format.
 pub fn read_bytes(bytes: &[u8], label: &str) -> Result<LoadedLog, LabError> {
-    match rov_logs::Format::detect(bytes) {
-        Some(rov_logs::Format::Csv) | None => {}
-        Some(f) => {
-            return Err(LabError::Data {
-                run: label.into(),
-                detail: format!(
-                    "a {} log; it needs a log map (--map MAP.toml) that says which fields are \
-                     the signals and command channels (see README, \"Logs of other vehicles\")",
-                    f.name()
-                ),
-            });
-        }
+    if let Some(format) = format_needing_map(bytes) {
+        return Err(LabError::Data {
+            run: label.into(),
+            detail: format!(
+                "a {format} log; it needs a log map (--map MAP.toml) that says which fields are \
+                 the signals and command channels (see README, \"Logs of other vehicles\")"
+            ),
+        });
     }
     let text = std::str::from_utf8(bytes).map_err(|_| LabError::Data {
         run: label.into(),

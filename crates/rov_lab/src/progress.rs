@@ -11,6 +11,7 @@
 
 use std::cell::RefCell;
 use std::fmt;
+use std::ops::ControlFlow;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 
@@ -220,7 +221,7 @@ impl Counter {
 
 /// Reading a log row by row, as a stage of its own ("loading dive.mcap 120000/864000
 /// rows"): the rows read are reported at most every [`Loading::REPORT_ROWS`] rows, and
-/// [`Loading::row`] says when the current work was cancelled, so that a reader stops
+/// [`Loading::row`] breaks when the current work was cancelled, so that a reader stops
 /// within a few thousand rows (well under a second) instead of reading an 8-hour
 /// session to its end. Without a current progress it only counts.
 #[derive(Debug)]
@@ -248,14 +249,14 @@ impl Loading {
         }
     }
 
-    /// One row read; `false` once the work was cancelled (stop reading).
-    pub fn row(&mut self) -> bool {
+    /// One row read; `Break` once the work was cancelled (stop reading).
+    pub fn row(&mut self) -> ControlFlow<()> {
         self.done += 1;
         if !self.done.is_multiple_of(Self::REPORT_ROWS) {
-            return true;
+            return ControlFlow::Continue(());
         }
         let Some(p) = &self.progress else {
-            return true;
+            return ControlFlow::Continue(());
         };
         let total = self.total.max(self.done);
         p.report(Stage {
@@ -264,7 +265,11 @@ impl Loading {
             total: if self.total == 0 { 0 } else { total },
             unit: "rows",
         });
-        !p.is_cancelled()
+        if p.is_cancelled() {
+            ControlFlow::Break(())
+        } else {
+            ControlFlow::Continue(())
+        }
     }
 
     /// Rows read so far.
@@ -300,7 +305,7 @@ mod tests {
         let read = p.run(|| {
             let mut l = Loading::start("dive.mcap", 3 * Loading::REPORT_ROWS);
             let mut k = 0;
-            while l.row() {
+            while l.row().is_continue() {
                 k += 1;
                 if k == Loading::REPORT_ROWS + 10 {
                     p2.cancel();
@@ -321,7 +326,7 @@ mod tests {
         );
         // Without a current progress it counts and never stops.
         let mut l = Loading::start("x", 0);
-        assert!((0..10_000).all(|_| l.row()));
+        assert!((0..10_000).all(|_| l.row().is_continue()));
         assert_eq!(l.rows(), 10_000);
     }
 

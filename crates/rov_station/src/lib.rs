@@ -40,6 +40,7 @@ pub(crate) use clone_fields;
 
 pub mod core;
 pub mod hold;
+pub mod import;
 pub mod metrics;
 pub mod pilot;
 pub mod runtime;

@@ -16,9 +16,7 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use anyhow::Context;
 use clap::Args;
-use rov_session::{import_csv, import_series};
 
 /// Arguments of `topside import`.
 #[derive(Debug, Args)]
@@ -35,56 +33,7 @@ pub struct ImportArgs {
 }
 
 pub fn run(args: ImportArgs) -> anyhow::Result<ExitCode> {
-    let label = args.csv.display().to_string();
-    let bytes = std::fs::read(&args.csv).with_context(|| format!("reading {label}"))?;
-    // The map: the one given, else the shipped map whose columns a CSV has (the BlueROV2
-    // tank CSVs), as the lab reads logs (rov_lab::loader).
-    let map = match &args.map {
-        Some(map_path) => {
-            let map_text = std::fs::read_to_string(map_path)
-                .with_context(|| format!("reading the log map {}", map_path.display()))?;
-            let map = rov_logs::LogMap::parse(&map_text, &map_path.display().to_string())?;
-            Some((map, map_text))
-        }
-        None => std::str::from_utf8(&bytes)
-            .ok()
-            .and_then(rov_lab::ingest::shipped_map_for)
-            .and_then(|map| {
-                let (_, text) = rov_lab::ingest::SHIPPED_MAPS
-                    .iter()
-                    .find(|(name, _)| *name == map.label)?;
-                Some((map, (*text).to_string()))
-            }),
-    };
-    let report = if let Some((map, map_text)) = map {
-        let log = rov_lab::loader::read_mapped(&bytes, &map, &label)?;
-        let left_out: Vec<&str> = log
-            .command_names()
-            .into_iter()
-            .filter(|n| !matches!(*n, "port" | "starboard" | "vertical"))
-            .collect();
-        let mut series = log.series.clone();
-        series.warnings.extend(log.notes().iter().cloned());
-        if !left_out.is_empty() {
-            series.warnings.push(format!(
-                "command channel(s) {} are not Pro 4 thrusters and are not stored in the \
-                 session (the lab reads them from the log with --map)",
-                left_out.join(", ")
-            ));
-        }
-        import_series(&series, &label, &map_text, &args.out)?
-    } else {
-        match rov_logs::Format::detect(&bytes) {
-            Some(rov_logs::Format::Csv) | None => {}
-            Some(f) => anyhow::bail!(
-                "{label}: a {} log; importing it needs a log map (--map MAP.toml)",
-                f.name()
-            ),
-        }
-        let text = String::from_utf8(bytes)
-            .map_err(|_| anyhow::anyhow!("{label}: not UTF-8 text; a binary log needs --map"))?;
-        import_csv(&text, &label, &args.out)?
-    };
+    let report = rov_station::import::import_log(&args.csv, args.map.as_deref(), &args.out)?;
     for w in &report.warnings {
         eprintln!("warning: {w}");
     }

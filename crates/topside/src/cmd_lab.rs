@@ -17,7 +17,6 @@
 //! stdout otherwise.
 
 use std::fs;
-use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
@@ -271,11 +270,7 @@ pub fn load_log_with(path: &Path, map: Option<&rov_logs::LogMap>) -> anyhow::Res
         let mut loading = Loading::start(&label, session.count(rov_session::Topic::Nav.name()));
         let done = rov_session::measurements_until(&session, &mut |_, row| {
             stream.push(row);
-            if loading.row() {
-                ControlFlow::Continue(())
-            } else {
-                ControlFlow::Break(())
-            }
+            loading.row()
         })
         .with_context(|| format!("reading measurements from {}", path.display()))?
         .ok_or(rov_lab::LabError::Cancelled)?;

@@ -492,6 +492,131 @@ fn lab_tab_splits_a_log_at_a_gap_as_the_cli_does() {
     r.snapshot_masked("lab_gap_split", data_field(&r));
 }
 
+/// Issue 22: the GUI's lab opens another vehicle's log through a log map and fits a
+/// model file, as `topside lab --map MAP --model FILE.toml` does. The log is the synthetic
+/// dive rewritten as a foreign logger would (time in ms, PWM commands, its own column
+/// names); through its map and with model3 saved as a model file, Compare gives the same
+/// numbers as the plain measurement CSV with the built-in model3.
+#[test]
+fn lab_tab_reads_a_foreign_log_through_a_map_and_fits_a_model_file() {
+    let clean = tmp("lab-foreign-clean.csv");
+    synthetic_csv(&clean);
+    let text = std::fs::read_to_string(&clean).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    // Time in ms, the three commands as PWM (m1..m3), every signal under a name of its own
+    // ("log_" + the lab's name), each mapped back by the map.
+    let commands = ["port_pct", "starboard_pct", "vertical_pct"];
+    let mut foreign = String::new();
+    for h in &header {
+        let name = match *h {
+            "time_s" => "t_ms".to_string(),
+            c if commands.contains(&c) => {
+                format!("m{}", 1 + commands.iter().position(|x| *x == c).unwrap())
+            }
+            other => format!("log_{other}"),
+        };
+        foreign.push_str(&name);
+        foreign.push(if h == header.last().unwrap() {
+            '\n'
+        } else {
+            ','
+        });
+    }
+    for line in lines {
+        let cells: Vec<String> = header
+            .iter()
+            .zip(line.split(','))
+            .map(|(h, x)| {
+                let v: f64 = x.parse().unwrap();
+                match *h {
+                    "time_s" => format!("{}", v * 1000.0),
+                    c if commands.contains(&c) => format!("{}", 1500.0 + 4.0 * v),
+                    _ => x.to_string(),
+                }
+            })
+            .collect();
+        foreign.push_str(&cells.join(","));
+        foreign.push('\n');
+    }
+    let log = tmp("lab-foreign.csv");
+    std::fs::write(&log, foreign).unwrap();
+    let map = tmp("lab-foreign-map.toml");
+    let mut map_text = String::from("format = \"csv\"\n[time]\nfield = \"t_ms\"\nscale = 0.001\n");
+    for (k, c) in commands.iter().enumerate() {
+        let channel = c.trim_end_matches("_pct");
+        map_text.push_str(&format!(
+            "[commands.{channel}]\nfield = \"m{}\"\npwm = [1100, 1500, 1900]\n",
+            k + 1
+        ));
+    }
+    map_text.push_str("[signals]\n");
+    for h in header
+        .iter()
+        .filter(|h| **h != "time_s" && !commands.contains(h))
+    {
+        map_text.push_str(&format!("{h} = {{ field = \"log_{h}\" }}\n"));
+    }
+    std::fs::write(&map, map_text).unwrap();
+    let model_file = tmp("lab-model3-file.toml");
+    let m3 = rov_lab::LabModel::default_base(rov_lab::BaseKind::Model3).unwrap();
+    std::fs::write(&model_file, rov_lab::save_extended_model(&m3, "test")).unwrap();
+
+    // The reference: the plain CSV with the built-in model3.
+    let mut r = rig("lab-foreign.mcap");
+    load_in_lab(&mut r, &clean);
+    r.click("Compare");
+    wait_lab(&mut r, 60.0);
+    let want = r.harness.state().lab().comparison.clone().unwrap();
+
+    // The foreign log through its map, the model from its file.
+    {
+        let lab = r.harness.state_mut().lab_mut();
+        lab.map_path = map.display().to_string();
+        lab.model_path = model_file.display().to_string();
+        lab.path.clear();
+    }
+    load_in_lab(&mut r, &log);
+    let lab = r.harness.state().lab();
+    assert!(lab.error.is_none(), "{:?}", lab.error);
+    let d = lab.data.as_ref().unwrap();
+    assert_eq!(d.name, "lab-foreign.csv");
+    assert!(!d.full.is_empty());
+    // Without its map the same log is not lab data (its columns mean nothing).
+    assert!(rov_gui::lab::load(&log).is_err());
+    assert_eq!(lab.base(), rov_gui::lab::LabBase::File(model_file.clone()));
+    assert!(r.has_label_containing("the log is read through lab-foreign-map.toml"));
+    r.click("Compare");
+    wait_lab(&mut r, 60.0);
+    let lab = r.harness.state().lab();
+    let got = lab
+        .comparison
+        .clone()
+        .unwrap_or_else(|| panic!("{:?}", lab.error));
+    for (w, g) in want.channels.iter().zip(&got.channels) {
+        assert_eq!(w.name, g.name);
+        assert!(
+            (w.rmse - g.rmse).abs() <= 1e-6 * w.rmse.max(1e-9),
+            "{}: {} through the map vs {} plain",
+            w.name,
+            g.rmse,
+            w.rmse
+        );
+    }
+    assert_eq!(want.channels.len(), got.channels.len());
+
+    // A model file that is not one is said, naming the file; nothing is compared.
+    let bad = tmp("lab-not-a-model.toml");
+    std::fs::write(&bad, "mass_kg = \"heavy\"\n").unwrap();
+    r.harness.state_mut().lab_mut().model_path = bad.display().to_string();
+    r.run(FRAME_S);
+    r.click("Compare");
+    wait_lab(&mut r, 60.0);
+    let lab = r.harness.state().lab();
+    let err = lab.error.clone().unwrap_or_default();
+    assert!(err.contains("lab-not-a-model.toml"), "{err}");
+}
+
 /// Opens the lab tab, types `path` into its data field and loads it (waits for the
 /// worker).
 fn load_in_lab(r: &mut Rig, path: &Path) {

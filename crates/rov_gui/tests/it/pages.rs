@@ -395,6 +395,95 @@ fn the_session_browser_lists_exports_replays_and_sends_to_the_lab() {
     );
 }
 
+/// Issue 22: the session browser opens another vehicle's log through a log map: "Import
+/// a log…" asks for the log, then its map, writes the session into the recordings folder
+/// (what `topside import --map` does) and lists it; a binary log without a map is
+/// refused in words, with the way out.
+#[test]
+fn the_session_browser_imports_a_log_through_its_map() {
+    let mut r = rig("import/first.mcap");
+    // The rig's recordings folder (the recording's own folder).
+    let dir = common::tmp("import/first.mcap")
+        .parent()
+        .unwrap()
+        .to_path_buf();
+    for old in ["foreign dive.mcap", "foreign dive-2.mcap"] {
+        let _ = std::fs::remove_file(dir.join(old));
+    }
+    r.harness.state_mut().set_tab(Tab::Replay);
+    r.run(FRAME_S);
+    // A foreign CSV: its own column names, time in ms, PWM commands.
+    let log = common::tmp("import-src/foreign dive.csv");
+    std::fs::create_dir_all(log.parent().unwrap()).unwrap();
+    let mut text = String::from("t_ms,m1,m2,m3,dep,yaw_deg\n");
+    for k in 0..300 {
+        let t = k as f64 * 0.1;
+        text.push_str(&format!(
+            "{},{},{},{},{},{}\n",
+            t * 1000.0,
+            1500.0 + 100.0 * (t * 0.3).sin(),
+            1500.0 - 100.0 * (t * 0.3).sin(),
+            1600.0,
+            2.0 + 0.01 * t,
+            (10.0 + t) % 360.0
+        ));
+    }
+    std::fs::write(&log, text).unwrap();
+    let map = common::tmp("import-src/foreign_map.toml");
+    let pwm = "pwm = [1100, 1500, 1900]";
+    std::fs::write(
+        &map,
+        format!(
+            "format = \"csv\"\n[time]\nfield = \"t_ms\"\nscale = 0.001\n\
+             [commands.port]\nfield = \"m1\"\n{pwm}\n[commands.starboard]\nfield = \"m2\"\n{pwm}\n\
+             [commands.vertical]\nfield = \"m3\"\n{pwm}\n\
+             [signals]\ndepth_m = {{ field = \"dep\" }}\nheading_deg = {{ field = \"yaw_deg\" }}\n"
+        ),
+    )
+    .unwrap();
+    r.shared
+        .dialogs
+        .lock()
+        .unwrap()
+        .extend([Some(log.clone()), Some(map.clone())]);
+    r.click("Import a log…");
+    r.harness.state_mut().browser_mut().wait_import();
+    r.harness.state_mut().browser_mut().wait();
+    r.run(FRAME_S);
+    let note = r.harness.state().browser().import_note.clone();
+    assert!(
+        matches!(&note, Some((true, n)) if n.starts_with("imported as foreign dive.mcap: 300 rows")),
+        "{note:?}"
+    );
+    let entries = r.harness.state().browser().entries.clone();
+    let e = entries
+        .iter()
+        .find(|e| e.path == dir.join("foreign dive.mcap"))
+        .unwrap_or_else(|| panic!("{entries:#?}"));
+    assert_eq!(e.vehicle, "import");
+    assert!((e.duration_s - 29.9).abs() < 0.2, "{e:?}");
+    // The session holds the log's values in the lab's units: 1600 µs is 25 % vertical.
+    let s = rov_session::open(&e.path).unwrap();
+    let (series, _, _) = rov_session::measurements(&s).unwrap();
+    let last = series.rows.last().unwrap();
+    assert!((last.vertical_pct - 25.0).abs() < 1e-9, "{last:?}");
+    assert!((series.rows[0].depth_m - 2.0).abs() < 1e-9);
+    assert!(r.has_label_containing("imported as foreign dive.mcap"));
+    r.snapshot("session_browser_import");
+    // A DataFlash log without a map: refused, saying what it is and what is needed.
+    let bin = common::tmp("import-src/log.BIN");
+    std::fs::write(&bin, [0xA3, 0x95, 0x80, 0x80, 0x59, b'F', b'M', b'T', 0]).unwrap();
+    r.shared.dialogs.lock().unwrap().extend([Some(bin), None]);
+    r.click("Import a log…");
+    r.harness.state_mut().browser_mut().wait_import();
+    r.run(FRAME_S);
+    let note = r.harness.state().browser().import_note.clone();
+    assert!(
+        matches!(&note, Some((false, n)) if n.contains("dataflash") && n.contains("log map")),
+        "{note:?}"
+    );
+}
+
 /// Opens a WebSocket connection by hand (the HTTP upgrade with Foxglove's subprotocol)
 /// and returns the stream once the server switched protocols.
 fn foxglove_client(addr: std::net::SocketAddr) -> std::net::TcpStream {

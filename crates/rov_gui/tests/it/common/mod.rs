@@ -27,6 +27,9 @@ pub struct Shared {
     pub recordings: Arc<Mutex<u32>>,
     /// What the file dialogs answer next (None: cancelled).
     pub dialog: Arc<Mutex<Option<PathBuf>>>,
+    /// Answers of the dialogs after `dialog`'s, in order (a flow that opens two dialogs);
+    /// when both are empty a dialog is cancelled.
+    pub dialogs: Arc<Mutex<std::collections::VecDeque<Option<PathBuf>>>>,
 }
 
 pub struct TestBackend {
@@ -84,7 +87,8 @@ impl Backend for TestBackend {
     }
 
     fn pick_file(&mut self, _title: &str, _ext: &[&str]) -> Option<PathBuf> {
-        self.shared.dialog.lock().unwrap().take()
+        let first = self.shared.dialog.lock().unwrap().take();
+        first.or_else(|| self.shared.dialogs.lock().unwrap().pop_front().flatten())
     }
 
     fn save_file(&mut self, _title: &str, _name: &str) -> Option<PathBuf> {
@@ -295,16 +299,15 @@ impl Rig {
             })
             .map(|n| n.rect())
             .collect();
-        out.extend(
-            self.harness
-                .query_all_by_label_contains("Recordings in")
-                // To the right edge: the folder's width depends on where the repository
-                // is checked out, so a mask of the label's own width would not match.
-                .map(|n| {
-                    let r = n.rect();
-                    egui::Rect::from_min_max(r.min, egui::pos2(r.min.x + 4000.0, r.max.y))
-                }),
-        );
+        // To the right edge: a folder's width depends on where the repository is checked
+        // out, so a mask of the label's own width would not match. An import's line names
+        // the map's path.
+        for text in ["Recordings in", "read through the log map"] {
+            out.extend(self.harness.query_all_by_label_contains(text).map(|n| {
+                let r = n.rect();
+                egui::Rect::from_min_max(r.min, egui::pos2(r.min.x + 4000.0, r.max.y))
+            }));
+        }
         out
     }
 
