@@ -78,7 +78,8 @@ pub const CATALOG_COSINE: f64 = 0.9;
 /// A runner-up on the same DOF is confirmed too when it explains at least this share of
 /// what the DOF's best pick explains.
 pub const NEAR_TIE: f64 = 0.9;
-/// Most terms confirmed per search round.
+/// Most runners-up confirmed per search round (the best pick of every DOF is always
+/// confirmed).
 pub const MAX_CONFIRM: usize = 3;
 
 /// The DOFs whose own quadratic drag the base calibrates (`Param::DragQuad` free): not
@@ -185,11 +186,17 @@ pub(super) fn search(
             let Some((kind, col)) = d.lib.get(i) else {
                 continue;
             };
-            // A catalog effect's signature in disguise?
+            // A catalog effect's signature in disguise? Only an effect whose signature
+            // lives on this DOF's channels (its catalog home) can stand for a term here:
+            // elsewhere its column is a side effect (a thrust change's pitch moment
+            // through the thrusters' arm), and a moment of the DOF's own would be lost
+            // to an effect the catalog rounds already refused.
             let lc = &lib0[i];
+            let dof_home = super::term_home(d.dof as u8);
             let catalog_like = d
                 .catalog
                 .iter()
+                .filter(|(e, _)| e.home_channels().iter().any(|c| dof_home.contains(c)))
                 .filter(|(_, cc)| {
                     super::judging::cosine(lc, &ls(cc, &base_refs).0).abs() > CATALOG_COSINE
                 })
@@ -347,11 +354,19 @@ pub(super) fn search(
     // the best of another); one pick per DOF first, then the runners-up.
     let mut picks: Vec<TermPick> = gains.into_iter().flatten().collect();
     picks.sort_by(|a, b| b.explained.total_cmp(&a.explained));
-    // Only terms that explain a real share, and a fair part of what the best explains,
-    // go on to confirmation (the catalog's screening gates).
-    let best = picks.first().map_or(0.0, |p| p.explained);
+    // Only terms that explain a real share, and a fair part of what the best of their
+    // own DOF explains, go on to confirmation (the catalog's screening gates, per DOF:
+    // a moment of one DOF is not screened out because another DOF's residual is larger
+    // or easier to explain; each DOF's own candidates are tested).
+    let mut best = [0.0f64; 6];
+    for p in &picks {
+        if let Some(b) = best.get_mut(p.term.dof as usize) {
+            *b = b.max(p.explained);
+        }
+    }
     picks.retain(|p| {
-        p.explained >= MIN_SCREEN_EXPLAINED && p.explained >= RELATIVE_SCREEN_GATE * best
+        let b = best.get(p.term.dof as usize).copied().unwrap_or(0.0);
+        p.explained >= MIN_SCREEN_EXPLAINED && p.explained >= RELATIVE_SCREEN_GATE * b
     });
     let mut firsts: Vec<TermPick> = Vec::new();
     let mut rest: Vec<TermPick> = Vec::new();
