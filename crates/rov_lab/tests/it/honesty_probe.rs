@@ -103,7 +103,7 @@ pub fn cases() -> Vec<Case> {
         case(
             "b1",
             211,
-            vec![Hidden::MunkRemoved(1.0)],
+            vec![Hidden::MunkRemoved(1.0, 1.0)],
             (240.0, 120.0, 0.05),
             vec!["term:pitch"],
             None,
@@ -111,7 +111,7 @@ pub fn cases() -> Vec<Case> {
         case(
             "b2",
             212,
-            vec![Hidden::MunkRemoved(1.0)],
+            vec![Hidden::MunkRemoved(1.0, 1.0)],
             (1200.0, 360.0, 0.1),
             vec!["term:pitch"],
             None,
@@ -137,6 +137,47 @@ pub fn cases() -> Vec<Case> {
             215,
             vec![Hidden::Perturb(0.1, 0.3)],
             (600.0, 240.0, 0.02),
+            vec![],
+            None,
+        ),
+        // More of (a) and (b): other signs, seeds and sizes (not tuned on).
+        case(
+            "a5",
+            205,
+            vec![Hidden::PitchSpeedSq(-0.03)],
+            SHORT,
+            vec!["term:pitch"],
+            None,
+        ),
+        case(
+            "a6",
+            206,
+            vec![Hidden::RollTurnSpeed(-0.04)],
+            SHORT,
+            vec!["term:roll"],
+            None,
+        ),
+        case(
+            "b6",
+            216,
+            vec![Hidden::MunkRemoved(0.5, 0.0)],
+            (240.0, 120.0, 0.05),
+            vec!["term:pitch"],
+            None,
+        ),
+        case(
+            "b7",
+            217,
+            vec![Hidden::Perturb(0.1, 0.3)],
+            (600.0, 300.0, 0.05),
+            vec![],
+            None,
+        ),
+        case(
+            "b8",
+            218,
+            vec![Hidden::Perturb(0.1, 0.3)],
+            (240.0, 120.0, 0.1),
             vec![],
             None,
         ),
@@ -173,6 +214,38 @@ pub fn cases() -> Vec<Case> {
             SHORT,
             vec!["depth-sensor-drift"],
             Some(("depth-sensor-drift", "depth_drift_mps", 5.0)),
+        ),
+        case(
+            "d3",
+            233,
+            vec![Hidden::DepthDrift(12.0)],
+            SHORT,
+            vec!["depth-sensor-drift"],
+            Some(("depth-sensor-drift", "depth_drift_mps", 12.0)),
+        ),
+        case(
+            "d4",
+            234,
+            vec![Hidden::NetBuoyancy(0.6)],
+            SHORT,
+            vec!["net-buoyancy"],
+            None,
+        ),
+        case(
+            "d5",
+            235,
+            vec![Hidden::DepthDrift(5.0)],
+            (600.0, 300.0, 0.05),
+            vec!["depth-sensor-drift"],
+            Some(("depth-sensor-drift", "depth_drift_mps", 5.0)),
+        ),
+        case(
+            "d6",
+            236,
+            vec![Hidden::DepthDrift(-4.0), Hidden::NetBuoyancy(-0.5)],
+            (600.0, 300.0, 0.05),
+            vec!["depth-sensor-drift"],
+            Some(("depth-sensor-drift", "depth_drift_mps", -4.0)),
         ),
         // (e) Two separate causes, each on its own channels.
         case(
@@ -290,6 +363,16 @@ fn honesty_probe() {
             &[va],
             &DiagnoseOptions {
                 threads: 2,
+                // Experiment hooks: PROBE_CAL_ITERS and PROBE_CONFIRM_ITERS override the LM
+                // budgets of the calibration and of the confirmation fits.
+                calibration_iterations: std::env::var("PROBE_CAL_ITERS")
+                    .ok()
+                    .and_then(|s| s.parse().ok())
+                    .unwrap_or(DiagnoseOptions::default().calibration_iterations),
+                confirm_iterations: std::env::var("PROBE_CONFIRM_ITERS")
+                    .ok()
+                    .and_then(|s| s.parse().ok())
+                    .unwrap_or(DiagnoseOptions::default().confirm_iterations),
                 ..Default::default()
             },
         )
@@ -327,6 +410,13 @@ fn honesty_probe() {
         );
         println!("{row}\n    summary: {}", d.summary);
         if std::env::var("PROBE_EXPLAIN").is_ok() {
+            println!(
+                "    calibration {:?}",
+                d.calibration
+                    .iter()
+                    .map(|p| format!("{}={:.4}", p.key, p.value))
+                    .collect::<Vec<_>>()
+            );
             for f in &d.findings {
                 println!(
                     "    finding {} [{}] {:?}: {}",

@@ -23,13 +23,19 @@
 //!    that explain most of the residual alone join them. The equation error is noisy
 //!    (rates differentiated from 20 Hz sensors), so it shortlists; it does not decide.
 //! 3. **Not a catalog effect in disguise.** A term whose column (base projected out) has
-//!    a cosine above [`CATALOG_COSINE`] with a catalog candidate's equation-error
-//!    signature is that effect's signature, reported under the effect, not as a new term.
+//!    a cosine above [`CATALOG_COSINE`] with the equation-error signature of a catalog
+//!    candidate *whose catalog home covers the term's DOF* is that effect's signature,
+//!    reported under the effect, not as a new term. An effect whose home lies elsewhere
+//!    does not shadow a DOF's own terms: its column there is a side effect (a thrust
+//!    change's pitch moment through the thrusters' arm); a missing pitch moment ∝ u|u|
+//!    was lost to the refused power limit that way (issue 26 §3a).
 //! 4. **Simulation screening.** Each shortlisted term's sensitivity in simulation error
 //!    (multiple shooting on the training runs, its DOF's channels at noise weight), with
 //!    the base parameters' sensitivities projected out, gives its linearised gain and
 //!    ΔBIC; the best of each DOF go on first, ranked by the share of the residual they
-//!    explain.
+//!    explain. The screening gates are per DOF (a share of the DOF's own best, not of
+//!    the best anywhere), and the term rounds confirm every DOF's best pick: each
+//!    moment's own candidates are tested before a term elsewhere is accepted.
 //! 5. **Confirmation.** Each surviving term is added to the model and fitted jointly with
 //!    the base parameters in simulation error (multiple shooting), then judged on the
 //!    held-out runs exactly like a catalog effect ([`judge`]: both views, the own-term

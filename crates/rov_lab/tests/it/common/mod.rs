@@ -80,11 +80,11 @@ pub enum Hidden {
     /// Outside the catalog: yaw moment k·u·|u| (N m per (m/s)²; a bent skid turning the
     /// vehicle when it moves).
     YawSpeedSq(f64),
-    /// The truth lacks this fraction of the velocity coupling its base carries: model3's
-    /// added-mass Coriolis keeps (Munk option "zeroed") a pitch moment −X_u̇·u·w and a yaw
-    /// moment +X_u̇·u·v on the vehicle (X_u̇ = −M_A11); the truth adds back `frac` of their
-    /// opposite, so with 1.0 the vehicle shows neither.
-    MunkRemoved(f64),
+    /// The truth lacks these fractions (pitch, yaw) of the velocity coupling its base
+    /// carries: model3's added-mass Coriolis keeps (Munk option "zeroed") a pitch moment
+    /// −M_A11·u·w and a yaw moment +M_A11·u·v on the vehicle; the truth adds back the
+    /// fractions of their opposites, so with (1.0, 1.0) the vehicle shows neither.
+    MunkRemoved(f64, f64),
     /// Perturbation pattern: every perturbed base parameter (the thrust maps, all six
     /// DOFs' linear and quadratic damping and added mass, CG depth) off by a magnitude drawn
     /// in [lo, hi] with a random sign, instead of uniformly within ±20 %. Not an effect.
@@ -102,8 +102,9 @@ struct OutsideTerms {
     pitch_uw: f64,
     roll_ur: f64,
     yaw_u_absu: f64,
-    /// M_A11 times the removed fraction of the base's remaining Munk coupling.
-    munk_removed: f64,
+    /// M_A11 times the removed fractions of the base's remaining Munk coupling (pitch,
+    /// yaw).
+    munk_removed: (f64, f64),
 }
 
 #[derive(Debug, Clone)]
@@ -182,8 +183,8 @@ impl VehicleModel for TruthModel {
         t[5] += o.yaw_u_absu * u * u.abs();
         // The base's kept added-mass Coriolis puts −M_A11·u·w on pitch and +M_A11·u·v on
         // yaw (Fossen's m2c of diag(M_A) with C_A[4][0], C_A[5][0] zeroed); cancel it.
-        t[4] += o.munk_removed * u * w;
-        t[5] -= o.munk_removed * u * v;
+        t[4] += o.munk_removed.0 * u * w;
+        t[5] -= o.munk_removed.1 * u * v;
         self.base.dynamics(state, &t, current)
     }
     fn n_extra_states(&self) -> usize {
@@ -328,7 +329,10 @@ fn truth_model(seed: u64, frac: f64, hidden: &[Hidden]) -> (TruthModel, Option<T
             Hidden::PitchSurgeHeave(k) => outside.pitch_uw = k,
             Hidden::RollTurnSpeed(k) => outside.roll_ur = k,
             Hidden::YawSpeedSq(k) => outside.yaw_u_absu = k,
-            Hidden::MunkRemoved(f) => outside.munk_removed = f * p.process.added_mass[(0, 0)],
+            Hidden::MunkRemoved(fp, fy) => {
+                let a11 = p.process.added_mass[(0, 0)];
+                outside.munk_removed = (fp * a11, fy * a11);
+            }
             Hidden::Tether(f, az_deg) => {
                 let a = az_deg.to_radians();
                 tether = Some(TetherForce {
