@@ -11,10 +11,11 @@
 //! (e) two separate causes at once, each on its own channels.
 //!
 //! For each case: what was accepted, the verdict, each channel's held-out rmse over its
-//! noise floor, and a judgement (RIGHT, or WRONG with why). The honesty rule judged: an
-//! adequate/explained verdict with a channel above 2× its floor is wrong, a name the truth
-//! does not carry is wrong, a missed expected name is "missed" (wrong, but honest when the
-//! verdict says unexplained).
+//! noise floor, and a judgement: RIGHT; HONEST MISS (an expected name missed, or an
+//! effect-free dive not called adequate, with nothing false named and the verdict
+//! "unexplained": "I cannot explain this, here is where it fails"); WRONG (a name the
+//! truth does not carry, a parameter more than 35 % off, or an adequate/explained verdict
+//! with a channel above 2× its floor).
 //!
 //! Run: `cargo test -p rov_lab --release --test it honesty_probe:: -- --ignored
 //! --nocapture` (`PROBE=a1,d2` runs only those cases).
@@ -264,6 +265,33 @@ pub fn cases() -> Vec<Case> {
             vec!["thruster-lag", "tether"],
             Some(("thruster-lag", "lag_time_constant_s", 0.25)),
         ),
+        // e2's causes alone (what each does without the other), and its vehicle
+        // without either.
+        case("e0", 242, vec![], SHORT, vec![], None),
+        case(
+            "e3",
+            242,
+            vec![Hidden::Tether(0.8, 240.0)],
+            SHORT,
+            vec!["tether"],
+            None,
+        ),
+        case(
+            "e4",
+            242,
+            vec![Hidden::Lag(0.25)],
+            SHORT,
+            vec!["thruster-lag"],
+            Some(("thruster-lag", "lag_time_constant_s", 0.25)),
+        ),
+        case(
+            "e5",
+            245,
+            vec![Hidden::AsymVertical(0.7), Hidden::Tether(0.5, 60.0)],
+            SHORT,
+            vec!["thrust-asymmetry", "tether"],
+            Some(("thrust-asymmetry", "reverse_ratio_vertical", 0.7)),
+        ),
     ]
 }
 
@@ -403,6 +431,13 @@ fn honesty_probe() {
             ratios(&d),
             if ok {
                 "RIGHT".to_string()
+            } else if d.verdict == Verdict::Unexplained
+                && why
+                    .iter()
+                    .all(|w| w.starts_with("missed") || w.starts_with("unexplained"))
+            {
+                // Nothing false named, and the verdict says the model is not adequate.
+                format!("HONEST MISS: {}", why.join("; "))
             } else {
                 format!("WRONG: {}", why.join("; "))
             },
