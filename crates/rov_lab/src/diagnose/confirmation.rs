@@ -467,7 +467,7 @@ pub(super) fn refine(
         let tau = fitted.model.get(Param::LagTau).unwrap_or(0.0);
         if tau < LAG_RESOLUTION * dt {
             signature_failed = Some(format!(
-                "the fitted lag of {:.0} ms is below half the sample period ({:.0} ms), too short to resolve at this rate",
+                "the fitted lag of {:.0} ms is shorter than the sample period ({:.0} ms), too short to resolve at this rate",
                 tau * 1000.0,
                 LAG_RESOLUTION * dt * 1000.0
             ));

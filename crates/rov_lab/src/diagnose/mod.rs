@@ -45,7 +45,8 @@
 //!    the same rule); a term is refused on the same ground
 //!    (`judging::veto_on_inadequate_base`).
 //! 8. **Terms** outside the catalog while the verdict still finds a channel
-//!    inconsistent ([`discovery`]).
+//!    inconsistent ([`discovery`]); every DOF's best pick is confirmed, so a moment's own
+//!    candidates are tested before a term on another DOF is accepted.
 //!
 //! Two candidates whose confirmed fits change the held-out predictions the same way
 //! (cosine > [`AMBIGUITY_COSINE`]) and score alike are reported as ambiguous, with the

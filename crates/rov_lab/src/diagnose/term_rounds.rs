@@ -61,14 +61,23 @@ impl Session<'_> {
             }
         }
         let mut top: Vec<&discovery::TermPick> = Vec::new();
+        let mut runners_up = 0;
         for p in &picks {
             let same: Vec<&&discovery::TermPick> =
                 top.iter().filter(|t| t.term.dof == p.term.dof).collect();
+            // Every DOF's best pick is confirmed (a moment's own candidates are tested
+            // before a term elsewhere is accepted), and near-equivalent runners-up up
+            // to MAX_CONFIRM.
             let keep = match same.first() {
                 None => true,
-                Some(b) => same.len() < 2 && p.explained >= discovery::NEAR_TIE * b.explained,
+                Some(b) => {
+                    same.len() < 2
+                        && p.explained >= discovery::NEAR_TIE * b.explained
+                        && runners_up < discovery::MAX_CONFIRM
+                }
             };
-            if keep && top.len() < discovery::MAX_CONFIRM {
+            if keep {
+                runners_up += usize::from(!same.is_empty());
                 top.push(p);
             }
         }

@@ -11,6 +11,8 @@ mod calibration_starts;
 mod discovered_terms;
 mod experiment;
 mod hidden_effects;
+mod honesty;
+mod honesty_probe;
 mod independent;
 mod lab_api;
 mod nulls_and_pairs;

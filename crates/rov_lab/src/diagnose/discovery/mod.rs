@@ -23,13 +23,19 @@
 //!    that explain most of the residual alone join them. The equation error is noisy
 //!    (rates differentiated from 20 Hz sensors), so it shortlists; it does not decide.
 //! 3. **Not a catalog effect in disguise.** A term whose column (base projected out) has
-//!    a cosine above [`CATALOG_COSINE`] with a catalog candidate's equation-error
-//!    signature is that effect's signature, reported under the effect, not as a new term.
+//!    a cosine above [`CATALOG_COSINE`] with the equation-error signature of a catalog
+//!    candidate *whose catalog home covers the term's DOF* is that effect's signature,
+//!    reported under the effect, not as a new term. An effect whose home lies elsewhere
+//!    does not shadow a DOF's own terms: its column there is a side effect (a thrust
+//!    change's pitch moment through the thrusters' arm); a missing pitch moment ∝ u|u|
+//!    was lost to the refused power limit that way (issue 26 §3a).
 //! 4. **Simulation screening.** Each shortlisted term's sensitivity in simulation error
 //!    (multiple shooting on the training runs, its DOF's channels at noise weight), with
 //!    the base parameters' sensitivities projected out, gives its linearised gain and
 //!    ΔBIC; the best of each DOF go on first, ranked by the share of the residual they
-//!    explain.
+//!    explain. The screening gates are per DOF (a share of the DOF's own best, not of
+//!    the best anywhere), and the term rounds confirm every DOF's best pick: each
+//!    moment's own candidates are tested before a term elsewhere is accepted.
 //! 5. **Confirmation.** Each surviving term is added to the model and fitted jointly with
 //!    the base parameters in simulation error (multiple shooting), then judged on the
 //!    held-out runs exactly like a catalog effect ([`judge`]: both views, the own-term
@@ -78,7 +84,8 @@ pub const CATALOG_COSINE: f64 = 0.9;
 /// A runner-up on the same DOF is confirmed too when it explains at least this share of
 /// what the DOF's best pick explains.
 pub const NEAR_TIE: f64 = 0.9;
-/// Most terms confirmed per search round.
+/// Most runners-up confirmed per search round (the best pick of every DOF is always
+/// confirmed).
 pub const MAX_CONFIRM: usize = 3;
 
 /// The DOFs whose own quadratic drag the base calibrates (`Param::DragQuad` free): not
@@ -185,11 +192,17 @@ pub(super) fn search(
             let Some((kind, col)) = d.lib.get(i) else {
                 continue;
             };
-            // A catalog effect's signature in disguise?
+            // A catalog effect's signature in disguise? Only an effect whose signature
+            // lives on this DOF's channels (its catalog home) can stand for a term here:
+            // elsewhere its column is a side effect (a thrust change's pitch moment
+            // through the thrusters' arm), and a moment of the DOF's own would be lost
+            // to an effect the catalog rounds already refused.
             let lc = &lib0[i];
+            let dof_home = super::term_home(d.dof as u8);
             let catalog_like = d
                 .catalog
                 .iter()
+                .filter(|(e, _)| e.home_channels().iter().any(|c| dof_home.contains(c)))
                 .filter(|(_, cc)| {
                     super::judging::cosine(lc, &ls(cc, &base_refs).0).abs() > CATALOG_COSINE
                 })
@@ -347,11 +360,19 @@ pub(super) fn search(
     // the best of another); one pick per DOF first, then the runners-up.
     let mut picks: Vec<TermPick> = gains.into_iter().flatten().collect();
     picks.sort_by(|a, b| b.explained.total_cmp(&a.explained));
-    // Only terms that explain a real share, and a fair part of what the best explains,
-    // go on to confirmation (the catalog's screening gates).
-    let best = picks.first().map_or(0.0, |p| p.explained);
+    // Only terms that explain a real share, and a fair part of what the best of their
+    // own DOF explains, go on to confirmation (the catalog's screening gates, per DOF:
+    // a moment of one DOF is not screened out because another DOF's residual is larger
+    // or easier to explain; each DOF's own candidates are tested).
+    let mut best = [0.0f64; 6];
+    for p in &picks {
+        if let Some(b) = best.get_mut(p.term.dof as usize) {
+            *b = b.max(p.explained);
+        }
+    }
     picks.retain(|p| {
-        p.explained >= MIN_SCREEN_EXPLAINED && p.explained >= RELATIVE_SCREEN_GATE * best
+        let b = best.get(p.term.dof as usize).copied().unwrap_or(0.0);
+        p.explained >= MIN_SCREEN_EXPLAINED && p.explained >= RELATIVE_SCREEN_GATE * b
     });
     let mut firsts: Vec<TermPick> = Vec::new();
     let mut rest: Vec<TermPick> = Vec::new();

@@ -68,6 +68,27 @@ pub enum Hidden {
     /// Outside the catalog: yaw moment k·w·|w| (N m per (m/s)²; a swirl set up by moving
     /// vertically).
     YawHeaveSq(f64),
+    /// Outside the catalog: pitch moment k·u·|u| (N m per (m/s)²; a bow-up moment growing
+    /// with the square of the surge speed, as lift on a frame ahead of the CO).
+    PitchSpeedSq(f64),
+    /// Outside the catalog: pitch moment k·u·w (N m per (m/s)²; a moment from moving
+    /// forward and vertically at once).
+    PitchSurgeHeave(f64),
+    /// Outside the catalog: roll moment k·u·r (N m per (m/s · rad/s); heel in a moving
+    /// turn).
+    RollTurnSpeed(f64),
+    /// Outside the catalog: yaw moment k·u·|u| (N m per (m/s)²; a bent skid turning the
+    /// vehicle when it moves).
+    YawSpeedSq(f64),
+    /// The truth lacks these fractions (pitch, yaw) of the velocity coupling its base
+    /// carries: model3's added-mass Coriolis keeps (Munk option "zeroed") a pitch moment
+    /// −M_A11·u·w and a yaw moment +M_A11·u·v on the vehicle; the truth adds back the
+    /// fractions of their opposites, so with (1.0, 1.0) the vehicle shows neither.
+    MunkRemoved(f64, f64),
+    /// Perturbation pattern: every perturbed base parameter (the thrust maps, all six
+    /// DOFs' linear and quadratic damping and added mass, CG depth) off by a magnitude drawn
+    /// in [lo, hi] with a random sign, instead of uniformly within ±20 %. Not an effect.
+    Perturb(f64, f64),
 }
 
 /// Out-of-catalog generalised forces of the truth (see [`Hidden`]).
@@ -77,6 +98,13 @@ struct OutsideTerms {
     yaw_r_absu: f64,
     heave_u_absu: f64,
     yaw_w_absw: f64,
+    pitch_u_absu: f64,
+    pitch_uw: f64,
+    roll_ur: f64,
+    yaw_u_absu: f64,
+    /// M_A11 times the removed fractions of the base's remaining Munk coupling (pitch,
+    /// yaw).
+    munk_removed: (f64, f64),
 }
 
 #[derive(Debug, Clone)]
@@ -149,6 +177,14 @@ impl VehicleModel for TruthModel {
         t[2] += o.heave_rr * r * r + o.heave_u_absu * u * u.abs();
         t[5] -= o.yaw_r_absu * r * u.abs();
         t[5] += o.yaw_w_absw * w * w.abs();
+        let v = state.nu[1];
+        t[3] += o.roll_ur * u * r;
+        t[4] += o.pitch_u_absu * u * u.abs() + o.pitch_uw * u * w;
+        t[5] += o.yaw_u_absu * u * u.abs();
+        // The base's kept added-mass Coriolis puts −M_A11·u·w on pitch and +M_A11·u·v on
+        // yaw (Fossen's m2c of diag(M_A) with C_A[4][0], C_A[5][0] zeroed); cancel it.
+        t[4] += o.munk_removed.0 * u * w;
+        t[5] -= o.munk_removed.1 * u * v;
         self.base.dynamics(state, &t, current)
     }
     fn n_extra_states(&self) -> usize {
@@ -172,6 +208,19 @@ impl VehicleModel for TruthModel {
     }
 }
 
+/// A perturbation: uniform within ±`frac`, or (`pattern` = Some((lo, hi))) a magnitude in
+/// [lo, hi] with a random sign.
+fn perturb_by(rng: &mut StdRng, x: f64, frac: f64, pattern: Option<(f64, f64)>) -> f64 {
+    match pattern {
+        Some((lo, hi)) => {
+            let m = rng.random_range(lo..=hi);
+            let sign = if rng.random_bool(0.5) { 1.0 } else { -1.0 };
+            x * (1.0 + sign * m)
+        }
+        None => perturb(rng, x, frac),
+    }
+}
+
 fn perturb(rng: &mut StdRng, x: f64, frac: f64) -> f64 {
     x * (1.0 + rng.random_range(-frac..=frac))
 }
@@ -182,6 +231,11 @@ fn truth_model(seed: u64, frac: f64, hidden: &[Hidden]) -> (TruthModel, Option<T
     let m3 = base.as_any().downcast_ref::<Model3>().unwrap();
     let mut p = *m3.params();
     let mut rng = StdRng::seed_from_u64(seed ^ 0xA5A5_0000);
+    let pattern = hidden.iter().find_map(|h| match *h {
+        Hidden::Perturb(lo, hi) => Some((lo, hi)),
+        _ => None,
+    });
+    let perturb = |rng: &mut StdRng, x: f64, frac: f64| perturb_by(rng, x, frac, pattern);
     for t in [
         &mut p.thrusters.port,
         &mut p.thrusters.starboard,
@@ -197,7 +251,8 @@ fn truth_model(seed: u64, frac: f64, hidden: &[Hidden]) -> (TruthModel, Option<T
     // with an axis index, e.g. "quad3,added1").
     let skip = std::env::var("PERTURB_SKIP").unwrap_or_default();
     let skipped = |g: &str, i: usize| skip.split(',').any(|s| s == format!("{g}{i}"));
-    for i in 1..6 {
+    // The pattern also moves surge (the ±20 % default leaves it at nominal).
+    for i in if pattern.is_some() { 0 } else { 1 }..6 {
         let (a, b, c) = (
             perturb(&mut rng, p.process.damping.linear[(i, i)], frac),
             perturb(&mut rng, p.process.damping.quadratic[i], frac),
@@ -270,6 +325,14 @@ fn truth_model(seed: u64, frac: f64, hidden: &[Hidden]) -> (TruthModel, Option<T
             Hidden::YawSpeedDamp(k) => outside.yaw_r_absu = k,
             Hidden::HeaveLift(k) => outside.heave_u_absu = k,
             Hidden::YawHeaveSq(k) => outside.yaw_w_absw = k,
+            Hidden::PitchSpeedSq(k) => outside.pitch_u_absu = k,
+            Hidden::PitchSurgeHeave(k) => outside.pitch_uw = k,
+            Hidden::RollTurnSpeed(k) => outside.roll_ur = k,
+            Hidden::YawSpeedSq(k) => outside.yaw_u_absu = k,
+            Hidden::MunkRemoved(fp, fy) => {
+                let a11 = p.process.added_mass[(0, 0)];
+                outside.munk_removed = (fp * a11, fy * a11);
+            }
             Hidden::Tether(f, az_deg) => {
                 let a = az_deg.to_radians();
                 tether = Some(TetherForce {
@@ -475,6 +538,22 @@ pub fn truth_run(
     let (mut sim, sensors) = truth_simulator(seed, noise_seed, hidden, frac);
     let s = run_schedule_on(&mut sim, &sensors, schedule, sample_period).unwrap();
     sensorize(s, hidden)
+}
+
+/// [`case_len`] with a given sample period, s (the simulator still steps at 100 Hz).
+pub fn case_sampled(
+    seed: u64,
+    hidden: &[Hidden],
+    train_len: f64,
+    val_len: f64,
+    sample_period: f64,
+) -> (MeasurementSeries, MeasurementSeries) {
+    let train_s = paper_schedule(seed, train_len, &[30.0, 60.0, 90.0], 12.0, 8.0);
+    let val_s = paper_schedule(seed + 1000, val_len, &[45.0, 75.0, 30.0, 90.0], 10.0, 8.0);
+    (
+        truth_run(seed, seed, hidden, &train_s, 0.2, sample_period),
+        truth_run(seed, seed + 5000, hidden, &val_s, 0.2, sample_period),
+    )
 }
 
 /// Training (10 min) and held-out (5 min, other order and levels) runs, 20 Hz.
