@@ -266,7 +266,7 @@ const PURE: [&str; 8] = [
 ];
 
 /// What a pure crate must not contain outside its tests.
-const FORBIDDEN: [&str; 10] = [
+const FORBIDDEN: [&str; 15] = [
     "Instant::now",
     "SystemTime::now",
     "std::fs",
@@ -274,9 +274,37 @@ const FORBIDDEN: [&str; 10] = [
     "File::create",
     "OpenOptions",
     "std::net",
-    "std::env::var",
+    "env::var",
     "std::process",
     "std::io::stdin",
+    "stdout()",
+    "stderr()",
+    "println!",
+    "eprintln!",
+    "tempfile",
+];
+
+/// Crates that exist to do I/O (files, scratch files, devices, sockets, dialogs, video,
+/// the OS's folders): a pure crate may not depend on them, whatever its sources look like
+/// (a grep of the sources cannot see what a dependency does for them).
+const IO_CRATES: [&str; 17] = [
+    "tempfile",
+    "memmap2",
+    "serialport",
+    "tokio",
+    "mio",
+    "socket2",
+    "nix",
+    "rfd",
+    "directories",
+    "dirs",
+    "notify",
+    "reqwest",
+    "ureq",
+    "gstreamer",
+    "gstreamer-app",
+    "gstreamer-video",
+    "foxglove",
 ];
 
 /// The lines of `text` outside `#[cfg(test)]` items (brace counting; good enough for
@@ -361,6 +389,47 @@ fn the_pure_crates_read_no_clock_and_do_no_io() {
     assert!(
         wrong.is_empty(),
         "I/O or clock in a pure crate:\n  {}",
+        wrong.join("\n  ")
+    );
+}
+
+/// The pure crates' normal and build dependencies (any crate, not only the workspace's)
+/// include no crate made for I/O ([`IO_CRATES`]): a scratch file, a device or a socket
+/// reached through a dependency is I/O all the same.
+#[test]
+fn the_pure_crates_depend_on_no_io_crate() {
+    let members = members();
+    let mut wrong = Vec::new();
+    for name in PURE {
+        let m = members
+            .get(name)
+            .unwrap_or_else(|| panic!("{name} is no longer a workspace member: update PURE"));
+        let manifest: toml::Table = std::fs::read_to_string(m.dir.join("Cargo.toml"))
+            .expect("the crate's manifest")
+            .parse()
+            .expect("the crate's manifest parses");
+        let mut tables = vec![
+            manifest.get("dependencies"),
+            manifest.get("build-dependencies"),
+        ];
+        if let Some(t) = manifest.get("target").and_then(|t| t.as_table()) {
+            for cfg in t.values() {
+                tables.push(cfg.get("dependencies"));
+                tables.push(cfg.get("build-dependencies"));
+            }
+        }
+        for t in tables.into_iter().flatten().filter_map(|t| t.as_table()) {
+            for (k, v) in t {
+                let real = v.get("package").and_then(|p| p.as_str()).unwrap_or(k);
+                if IO_CRATES.contains(&real) {
+                    wrong.push(format!("{name} depends on {real}, an I/O crate"));
+                }
+            }
+        }
+    }
+    assert!(
+        wrong.is_empty(),
+        "I/O crate in a pure crate's dependencies:\n  {}",
         wrong.join("\n  ")
     );
 }
