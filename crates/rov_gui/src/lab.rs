@@ -536,7 +536,7 @@ impl LabState {
                 Err(e) => return LabResult::Failed(e.to_string()),
             };
             match compare_on(&m, &run, &scope) {
-                Ok(c) => LabResult::Compared(c),
+                Ok(c) => LabResult::Compared(base.relabel(c)),
                 Err(e) => LabResult::Failed(e.to_string()),
             }
         });
@@ -565,7 +565,7 @@ impl LabState {
                 Err(e) => return LabResult::Failed(e.to_string()),
             };
             match compare_on(&diag.calibrated, &val, HELD_OUT) {
-                Ok(c) => LabResult::Diagnosed(Box::new(diag), c),
+                Ok(c) => LabResult::Diagnosed(Box::new(diag), choice.relabel(c)),
                 Err(e) => LabResult::Failed(e.to_string()),
             }
         });

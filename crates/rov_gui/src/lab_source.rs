@@ -35,6 +35,21 @@ impl LabBase {
         }
     }
 
+    /// `c` headed with this base's name: a model file's name in place of its kind
+    /// ("bluerov2_heavy.toml+tether", not "vehicle+tether"); a built-in base unchanged.
+    #[must_use]
+    pub fn relabel(&self, mut c: crate::lab::Comparison) -> crate::lab::Comparison {
+        if let Self::File(_) = self {
+            let effects = c
+                .model
+                .split_once('+')
+                .map(|(_, e)| format!("+{e}"))
+                .unwrap_or_default();
+            c.model = format!("{}{effects}", self.label());
+        }
+        c
+    }
+
     /// The model, through the lab's one loader (a file's errors name file, key, value).
     ///
     /// # Errors

@@ -604,6 +604,9 @@ fn lab_tab_reads_a_foreign_log_through_a_map_and_fits_a_model_file() {
         );
     }
     assert_eq!(want.channels.len(), got.channels.len());
+    // Headed with the model file's name, not its kind.
+    assert_eq!(got.model, "lab-model3-file.toml");
+    assert!(r.has_label_containing("MODEL lab-model3-file.toml VS MEASURED"));
 
     // A model file that is not one is said, naming the file; nothing is compared.
     let bad = tmp("lab-not-a-model.toml");
